@@ -1,0 +1,12 @@
+"""Benchmarks: ours against VTK's built-ins in the same run, medians over repeats, CSV plus plots.
+
+Each benchmark module exposes ``run(out_dir, *, quick=False, progress=None) -> list[pathlib.Path]`` (the files it
+wrote) and is started by ``voxelscope bench NAME -o DIR``. Speed is measured here, never asserted in unit tests.
+"""
+
+BENCHMARKS = {
+    "voxel-surfaces": "app.bench.voxel_surfaces",
+    "marching-cubes": "app.bench.marching_cubes",
+    "render": "app.bench.render",
+    "shear-warp": "app.bench.shear_warp",
+}

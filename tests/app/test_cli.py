@@ -1,0 +1,158 @@
+"""The command line end to end: real processes, real files, JSON as documented, errors without tracebacks."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.io import save_volume
+from app.render_job import read_png
+
+from .dicom_helpers import small_ct, write_scanner_folder
+
+INFO_KEYS = {"dimensions", "spacing", "origin", "direction", "dtype", "range", "modality", "units", "world_bounds",
+             "source_format", "warnings"}
+
+
+def voxelscope(*args, check=True):
+    """Run the installed command line in a fresh process (like a user would)."""
+    process = subprocess.run([sys.executable, "-m", "app.cli", *map(str, args)], capture_output=True, text=True,
+                             timeout=600)
+    if check and process.returncode != 0:
+        raise AssertionError(f"voxelscope {' '.join(map(str, args))} failed:\n{process.stderr}")
+    return process
+
+
+def info_json(path) -> dict:
+    output = voxelscope("info", path, "--json").stdout
+    data = json.loads(output)  # exactly one JSON object
+    assert INFO_KEYS <= set(data)
+    return data
+
+
+def test_info_on_scanner_folder_and_its_nifti(tmp_path):
+    volume = small_ct()
+    write_scanner_folder(volume, tmp_path / "dicom")
+    facts = info_json(tmp_path / "dicom")
+    assert facts["dimensions"] == list(volume.dimensions)
+    assert facts["spacing"] == pytest.approx(list(volume.spacing))
+    assert facts["range"] == [float(volume.array.min()), float(volume.array.max())]
+    assert facts["units"] == "HU" and facts["modality"] == "CT"
+    assert facts["origin"] == pytest.approx(list(volume.origin))
+    assert facts["direction"] == pytest.approx(list(np.eye(3).ravel()))
+    assert facts["world_bounds"] == pytest.approx(list(volume.world_bounds))
+    assert facts["source_format"] == "DICOM series"
+    assert facts["other_series"][0]["description"] == "Topogram"
+
+    voxelscope("convert", tmp_path / "dicom", "-o", tmp_path / "same.nii.gz")
+    nifti = info_json(tmp_path / "same.nii.gz")
+    for key in ("dimensions", "spacing", "direction", "origin", "range", "units"):
+        assert nifti[key] == pytest.approx(facts[key]) if key != "units" else nifti[key] == facts[key]
+
+    text = voxelscope("info", tmp_path / "dicom").stdout
+    assert "Not used     series" in text and "Topogram" in text and "HU" in text and "LPS" in text
+
+
+def test_truncated_and_stray_files_warn_by_name(tmp_path):
+    from app.io import write_dicom_series
+
+    folder = tmp_path / "dicom"
+    paths = write_dicom_series(small_ct(), folder, rescale_intercept=-1024)
+    paths[-1].write_bytes(paths[-1].read_bytes()[:-300])
+    (folder / "readme.txt").write_text("exported by the PACS")
+    process = voxelscope("info", folder)
+    assert f"Warning      {paths[-1]}: skipped" in process.stdout
+    assert "readme.txt: skipped, not a DICOM file" in process.stdout
+    assert "Traceback" not in process.stdout + process.stderr
+
+
+def test_errors_are_one_clear_line(tmp_path):
+    (tmp_path / "bad.nii").write_bytes(b"not a nifti file at all" * 20)
+    for args in (("info", tmp_path / "missing.nii"), ("info", tmp_path / "bad.nii"),
+                 ("render", "sample", "--mode", "vtk-cpu", "-o", tmp_path / "x.jpg")):
+        process = voxelscope(*args, check=False)
+        assert process.returncode != 0
+        lines = process.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("voxelscope: error: "), process.stderr
+        assert "Traceback" not in process.stderr
+    assert "missing.nii: no such file or folder" in voxelscope("info", tmp_path / "missing.nii", check=False).stderr
+    debug = voxelscope("--debug", "info", tmp_path / "missing.nii", check=False)
+    assert "Traceback" in debug.stderr
+
+
+@pytest.mark.parametrize("mode", ["vtk-gpu", "vtk-cpu"])
+def test_render_volume_modes_on_the_sample(tmp_path, mode):
+    out = tmp_path / f"{mode}.png"
+    process = voxelscope("render", "sample", "--mode", mode, "-o", out, "--size", 160, 128, "--frames", 3,
+                         "--azimuth", 30, "--json")
+    report = json.loads(process.stdout)
+    for key in ("frame_seconds", "mean_frame_seconds", "weighted_mean_frame_seconds", "setup_seconds"):
+        assert report[key] > 0
+    assert report["frames"] == 3 and report["mode"] == mode
+    image = read_png(out)
+    assert image.shape == (128, 160, 3)
+    # The skull is in the middle of a black background.
+    assert image[0, 0].max() == 0 and image[64, 80].max() > 40
+    assert voxelscope("render", "sample", "--mode", mode, "-o", out, check=False).returncode == 1  # no overwrite
+
+
+def test_render_surface_mode_and_background(tmp_path):
+    out = tmp_path / "fe.png"
+    report = json.loads(voxelscope("render", "sample:mri", "--mode", "flying-edges", "-o", out, "--size", 96, 96,
+                                   "--background", 255, 255, 255, "--json").stdout)
+    assert report["surface"]["triangles"] > 1000
+    image = read_png(out)
+    assert tuple(image[0, 0]) == (255, 255, 255)
+
+
+def test_mesh_flying_edges_json_and_files(tmp_path):
+    out = tmp_path / "skull.stl"
+    report = json.loads(voxelscope("mesh", "sample", "--method", "flying-edges", "--iso", 300, "-o", out,
+                                   "--json").stdout)
+    for key in ("points", "triangles", "cells", "strips", "bytes", "seconds"):
+        assert key in report
+    assert report["triangles"] > 10000 and report["strips"] == 0
+    assert report["bytes"] == report["points"] * 12 + report["triangles"] * 12
+    assert out.exists() and Path(str(out) + ".json").exists()
+    sidecar = json.loads(Path(str(out) + ".json").read_text())
+    assert sidecar["iso_value"] == 300 and sidecar["method"] == "flying-edges"
+    assert sidecar["coordinate_system"] == "LPS" and sidecar["length_units"] == "mm"
+
+    from vtkmodules.vtkIOGeometry import vtkSTLReader
+
+    reader = vtkSTLReader()
+    reader.SetFileName(str(out))
+    reader.Update()
+    assert reader.GetOutput().GetNumberOfCells() == report["triangles"]
+    # LPS mm: the skull sits inside the volume's world bounds.
+    bounds = reader.GetOutput().GetBounds()
+    assert -120 < bounds[0] < bounds[1] < 120 and -107 <= bounds[4] < bounds[5] <= 107
+
+    refused = voxelscope("mesh", "sample", "--method", "flying-edges", "-o", out, check=False)
+    assert refused.returncode == 1 and "already exists" in refused.stderr
+
+
+def test_convert_and_series_listing(tmp_path):
+    volume = small_ct()
+    write_scanner_folder(volume, tmp_path / "dicom")
+    listing = json.loads(voxelscope("series", tmp_path / "dicom", "--json").stdout)["series"]
+    assert [s["slices"] for s in listing] == [volume.dimensions[2], 1]
+    save_volume(volume, tmp_path / "v.mha")
+    voxelscope("convert", tmp_path / "v.mha", "-o", tmp_path / "v.vti")
+    assert info_json(tmp_path / "v.vti")["dimensions"] == list(volume.dimensions)
+
+
+def test_raw_on_the_command_line(tmp_path):
+    values = np.arange(4 * 5 * 6, dtype=np.uint16).reshape(6, 5, 4)
+    (tmp_path / "v.raw").write_bytes(values.tobytes())
+    facts = info_json_args(tmp_path / "v.raw", "--raw-dims", 4, 5, 6, "--raw-dtype", "uint16", "--raw-spacing", 1, 1, 2)
+    assert facts["dimensions"] == [4, 5, 6] and facts["spacing"] == [1, 1, 2] and facts["range"] == [0, 119]
+
+
+def info_json_args(*args) -> dict:
+    return json.loads(voxelscope("info", *args, "--json").stdout)
