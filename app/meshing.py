@@ -55,7 +55,7 @@ def to_world(polydata, volume: Volume, coordinates: str = "LPS"):
     the superior axis, so triangle winding, and with it the outward orientation, is preserved.
     """
     from vtkmodules.vtkCommonTransforms import vtkTransform
-    from vtkmodules.vtkFiltersGeneral import vtkTransformPolyDataFilter
+    from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
 
     from algorithms._vtk import run_algorithm
 
@@ -69,7 +69,7 @@ def to_world(polydata, volume: Volume, coordinates: str = "LPS"):
         matrix = np.diag([-1.0, -1.0, 1.0, 1.0]) @ matrix
     transform = vtkTransform()
     transform.SetMatrix(_matrix_to_vtk(matrix))
-    moved = vtkTransformPolyDataFilter()
+    moved = vtkTransformFilter()
     moved.SetTransform(transform)
     moved.SetInputData(polydata)
     output = run_algorithm(moved)

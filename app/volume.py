@@ -94,6 +94,7 @@ class Volume:
         self.metadata = dict(self.metadata)
         self._range: tuple[float, float] | None = None
         self._percentiles: dict[tuple[float, float], tuple[float, float]] = {}
+        self._histograms: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     # -- sizes and values --------------------------------------------------------------------------------------
     @property
@@ -128,6 +129,16 @@ class Volume:
                 lo, hi = self.value_range
             self._percentiles[key] = (lo, hi if hi > lo else lo + 1.0)
         return self._percentiles[key]
+
+    def histogram(self, bins: int = 256, *, max_samples: int = 4_000_000) -> tuple[np.ndarray, np.ndarray]:
+        """Counts and edges over the full value range (a regular subsample of large volumes; cached)."""
+        if bins not in self._histograms:
+            lo, hi = self.value_range
+            data = self.array.ravel()
+            if data.size > max_samples:
+                data = data[:: data.size // max_samples + 1]
+            self._histograms[bins] = np.histogram(data, bins=bins, range=(lo, hi if hi > lo else lo + 1.0))
+        return self._histograms[bins]
 
     @property
     def units_label(self) -> str:

@@ -127,6 +127,7 @@ def test_mesh_flying_edges_json_and_files(tmp_path):
 
     reader = vtkSTLReader()
     reader.SetFileName(str(out))
+    reader.MergingOff()
     reader.Update()
     assert reader.GetOutput().GetNumberOfCells() == report["triangles"]
     # LPS mm: the skull sits inside the volume's world bounds.

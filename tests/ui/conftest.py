@@ -1,0 +1,48 @@
+"""Fixtures for the workbench tests: the real Qt window under the (virtual) X server, with throw-away settings."""
+
+from __future__ import annotations
+
+import pytest
+
+pytest.importorskip("pytestqt")
+
+
+@pytest.fixture
+def settings(tmp_path):
+    from qtpy.QtCore import QSettings
+
+    return QSettings(str(tmp_path / "voxelscope.ini"), QSettings.IniFormat)
+
+
+@pytest.fixture(scope="session")
+def small_ct_file(tmp_path_factory):
+    """A reduced CT phantom (fast views), written as NIfTI like a user's file."""
+    from app.datasets import ct_head_phantom
+    from app.io import save_volume
+
+    path = tmp_path_factory.mktemp("volumes") / "small_ct.nii.gz"
+    return save_volume(ct_head_phantom(shape=(54, 128, 128), spacing=(1.875, 1.875, 4.0)), path)
+
+
+@pytest.fixture
+def window(qtbot, settings):
+    from ui.main_window import MainWindow
+
+    main = MainWindow(settings=settings)
+    qtbot.addWidget(main)
+    main.resize(1200, 800)
+    main.show()
+    qtbot.waitExposed(main)
+    yield main
+    main.close()
+
+
+def open_and_wait(qtbot, window, path, timeout=120_000):
+    """Open a volume and wait until every visible view has drawn its final frame."""
+    with qtbot.waitSignal(window.all_views_ready, timeout=timeout):
+        window.open_path(path)
+    assert window.views_ready()
+
+
+def wait_ready(qtbot, window, timeout=120_000):
+    qtbot.waitUntil(window.views_ready, timeout=timeout)

@@ -1,0 +1,207 @@
+"""The real workbench under a virtual X server: modes, linked cameras, isovalue, errors, export, screenshots."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from qtpy.QtCore import QTimer
+from qtpy.QtWidgets import QApplication, QFileDialog, QMessageBox
+
+from algorithms.image_metrics import psnr
+from app.render_job import read_png, write_png
+from app.samples import sample_path
+
+from .conftest import open_and_wait, wait_ready
+
+BASELINES = Path(__file__).parent / "baselines"
+
+
+def test_opens_the_sample_in_four_modes(qtbot, window):
+    window.model.set_layout("2x2")
+    for index, mode in enumerate(("flying-edges", "vtk-marching-cubes", "vtk-gpu", "vtk-cpu")):
+        window.model.set_view_mode(index, mode)
+    open_and_wait(qtbot, window, sample_path("ct"))
+    assert window.model.volume.dimensions == (256, 256, 108)
+    assert [view.mode for view in window.views] == ["flying-edges", "vtk-marching-cubes", "vtk-gpu", "vtk-cpu"]
+    for view in window.views:
+        image = view.capture()
+        assert image.mean() > 3, f"{view.mode} drew nothing"
+        assert "frame" in view.stats_label.text()
+    # Surface statistics are on show; volume views state their sample step.
+    assert "triangles" in window.views[0].stats_label.text()
+    assert "sample step 0.47 mm" in window.views[2].stats_label.text()
+    # The slice views show the cursor at the volume centre with HU window/level.
+    assert window.slice_views["axial"]._slice == 54
+
+
+def test_switch_modes_in_each_view(qtbot, window, small_ct_file):
+    open_and_wait(qtbot, window, small_ct_file)
+    for index, mode in enumerate(("vtk-cpu", "flying-edges", "vtk-marching-cubes", "vtk-gpu")):
+        view = window.views[index]
+        position = view.mode_box.findData(mode)
+        view.mode_box.setCurrentIndex(position)
+        view.mode_box.activated.emit(position)  # what a user's choice in the combo box emits
+        assert window.model.view_modes[index] == mode
+        wait_ready(qtbot, window)
+        assert view.mode == mode and view.capture().mean() > 3
+
+
+def _pose(view):
+    camera = view.renderer.GetActiveCamera()
+    return np.array(camera.GetPosition() + camera.GetFocalPoint() + camera.GetViewUp())
+
+
+def test_linked_cameras_follow_and_unlink(qtbot, window, small_ct_file):
+    open_and_wait(qtbot, window, small_ct_file)
+    first, others = window.views[0], window.views[1:]
+    # Drag-rotate the first view with the interactor's own camera calls.
+    first.renderer.GetActiveCamera().Azimuth(40)
+    first.renderer.GetActiveCamera().Elevation(15)
+    first.render()
+    for view in others:
+        np.testing.assert_allclose(_pose(view), _pose(first))
+    wait_ready(qtbot, window)
+    # The other views redrew for the new pose: their frames changed from the anterior view.
+    window.model.set_cameras_linked(False)
+    before = [_pose(view) for view in others]
+    first.renderer.GetActiveCamera().Azimuth(60)
+    first.render()
+    for view, pose in zip(others, before):
+        np.testing.assert_allclose(_pose(view), pose)
+    assert not np.allclose(_pose(first), before[0])
+    window.model.set_cameras_linked(True)
+    for view in others:
+        np.testing.assert_allclose(_pose(view), _pose(first))
+
+
+def test_isovalue_changes_the_surface(qtbot, window, small_ct_file):
+    open_and_wait(qtbot, window, small_ct_file)
+    surface_view = window.views[0]
+    assert surface_view.mode == "flying-edges"
+    bone = surface_view.current_surface().stats["triangles"]
+    window.model.set_iso(-300.0)  # skin
+    wait_ready(qtbot, window)
+    skin = surface_view.current_surface().stats["triangles"]
+    assert skin != bone
+    assert f"{skin:,} triangles" in surface_view.stats_label.text()
+    # Dragging the slider shows a reduced-resolution preview first, the full surface on release.
+    window.controls._iso_moved(500.0)
+    qtbot.waitUntil(lambda: "preview" in surface_view.stats_label.text(), timeout=60_000)
+    window.controls._iso_set(500.0)
+    wait_ready(qtbot, window)
+    assert "preview" not in surface_view.stats_label.text()
+    assert surface_view.current_surface().stats["triangles"] not in (bone, skin)
+
+
+def test_corrupted_file_shows_a_dialog_and_the_app_survives(qtbot, window, tmp_path, small_ct_file):
+    broken = tmp_path / "broken.nii.gz"
+    broken.write_bytes(small_ct_file.read_bytes()[:5000])
+    with qtbot.waitSignal(window.load_failed, timeout=60_000) as blocker:
+        window.open_path(broken)
+    assert "broken.nii.gz" in blocker.args[0]
+    dialogs = [w for w in QApplication.topLevelWidgets() if isinstance(w, QMessageBox) and w.isVisible()]
+    assert dialogs and "broken.nii.gz" in dialogs[0].text()
+    dialogs[0].accept()
+    open_and_wait(qtbot, window, small_ct_file)
+    assert window.model.volume.dimensions == (128, 128, 54)
+
+
+def test_export_mesh_through_the_menu(qtbot, window, small_ct_file, tmp_path, monkeypatch):
+    from vtkmodules.vtkIOGeometry import vtkSTLReader
+
+    from app.meshing import to_world
+
+    open_and_wait(qtbot, window, small_ct_file)
+    out = tmp_path / "skull.stl"
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *args, **kwargs: (str(out), "STL (*.stl)"))
+    from ui.dialogs import ExportOptionsDialog
+
+    monkeypatch.setattr(ExportOptionsDialog, "ask", classmethod(lambda cls, path, parent=None: {
+        "coordinates": "LPS", "cleanup": {}}))
+    surface = window.views[0].current_surface()
+    with qtbot.waitSignal(window.tasks.ended, timeout=60_000, check_params_cb=lambda t: "Exporting" in t.label):
+        window.export_mesh()
+    reader = vtkSTLReader()
+    reader.SetFileName(str(out))
+    reader.MergingOff()  # keep every written triangle, including zero-area ones at isovalues equal to voxel values
+    reader.Update()
+    read = reader.GetOutput()
+    assert read.GetNumberOfCells() == surface.stats["triangles"]
+    expected = to_world(surface.polydata, window.model.volume, "LPS").GetBounds()
+    np.testing.assert_allclose(read.GetBounds(), expected, atol=1e-3)
+    sidecar = json.loads(Path(str(out) + ".json").read_text())
+    assert sidecar["method"] == "flying-edges" and sidecar["source_file"].endswith("small_ct.nii.gz")
+    assert sidecar["counts"]["triangles"] == surface.stats["triangles"]
+
+
+def test_view_screenshot_matches_the_baseline(qtbot, window, small_ct_file, tmp_path):
+    """The flying-edges view of the small phantom, anterior camera, 1x1 layout at a fixed window size.
+
+    Tolerance: PSNR >= 30 dB against the committed baseline (llvmpipe's rasterisation is deterministic; the margin
+    absorbs driver-level differences in line and normal interpolation).
+    """
+    window.model.set_layout("1x1")
+    window.model.set_view_mode(0, "flying-edges")
+    window.resize(1000, 700)
+    open_and_wait(qtbot, window, small_ct_file)
+    window.reset_camera("anterior")
+    wait_ready(qtbot, window)
+    image = window.views[0].capture()
+    baseline_path = BASELINES / "flying_edges_small_ct.png"
+    write_png(image, tmp_path / "current.png")
+    assert baseline_path.exists(), f"no baseline; the current image is at {tmp_path / 'current.png'}"
+    baseline = read_png(baseline_path)[..., :3]
+    assert baseline.shape == image.shape, (baseline.shape, image.shape)
+    assert psnr(image, baseline) >= 30.0
+
+
+def test_gui_stays_responsive_while_meshing_and_cancel_stops(qtbot, window, tmp_path):
+    """A 256^3 volume is meshed in a worker: the GUI thread's timer never stalls for more than about 100 ms."""
+    from app.datasets import sphere_field
+    from app.io import save_volume
+    from app.volume import Volume
+
+    field = sphere_field((256, 256, 256), 100.0) + 0.05 * np.random.default_rng(0).standard_normal((256, 256, 256))
+    path = save_volume(Volume(field.astype(np.float32)), tmp_path / "big.nii")
+    window.model.set_layout("1x1")
+    window.model.set_view_mode(0, "vtk-marching-cubes")
+    open_and_wait(qtbot, window, path, timeout=300_000)
+
+    view = window.views[0]
+    gaps, last = [], [time.perf_counter()]
+
+    def tick():
+        # Only gaps that end while the extraction runs count: adding the finished mesh to the view is GUI work.
+        now = time.perf_counter()
+        if view._content_task is not None:
+            gaps.append(now - last[0])
+        last[0] = now
+
+    timer = QTimer()
+    timer.setInterval(10)
+    timer.timeout.connect(tick)
+    timer.start()
+    started = time.perf_counter()
+    window.model.set_iso(0.5)
+    qtbot.waitUntil(lambda: view._content_task is None, timeout=300_000)
+    computed = time.perf_counter() - started
+    timer.stop()
+    assert computed > 0.3 and len(gaps) > 10, "the extraction was too short to measure responsiveness"
+    worst = max(gaps)
+    assert worst < 0.12, f"the GUI thread stalled for {worst * 1000:.0f} ms while meshing"
+    triangles = view.current_surface().stats["triangles"]
+
+    # Cancel: start a new extraction and press Cancel in the status bar once it is under way. It stops early (well
+    # before a full extraction's time) and the view keeps the previous surface.
+    window.model.set_iso(-2.0)
+    qtbot.waitUntil(lambda: window._progress_value > 0, timeout=30_000)
+    pressed = time.perf_counter()
+    window.cancel_button.click()
+    qtbot.waitUntil(lambda: view._content_task is None, timeout=60_000)
+    assert time.perf_counter() - pressed < 0.5 * computed
+    assert view.stats_label.text().startswith("cancelled")
+    assert view.surface.stats["triangles"] == triangles
