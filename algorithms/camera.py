@@ -173,6 +173,13 @@ class Camera:
             parallel_scale=self.parallel_scale * scale,
         )
 
+    def as_parallel(self) -> "Camera":
+        """The parallel camera that shows the focal plane as this one does (same pose and framing there)."""
+        if self.parallel_projection:
+            return self
+        scale = self.distance * math.tan(math.radians(self.view_angle) / 2)
+        return replace(self, parallel_projection=True, parallel_scale=scale)
+
     def orbited(self, azimuth: float = 0.0, elevation: float = 0.0) -> "Camera":
         """Rotate the position about the focal point like ``vtkCamera.Azimuth`` then ``Elevation`` (degrees)."""
         right, up, forward = self.basis()

@@ -126,22 +126,25 @@ def _mesh(args) -> int:
         "strips": int(stats["strips"]),
         "bytes": int(stats["bytes"]),
         "seconds": float(stats["seconds"]),
+        "compile_seconds": float(stats.get("compile_seconds", 0.0)),
         "method": args.method,
         "iso": iso,
         "iso_units": volume.units_label,
         "coordinates": args.coordinates.upper(),
         "output": str(export.paths[0]),
         "sidecar": str(export.paths[1]) if len(export.paths) > 1 else None,
+        "written": {k: int(v) for k, v in export.written.items()},
         "validity": validity,
     }
     if args.json:
         _print_json(report)
         return 0
     print(f"Validity: watertight={validity.get('watertight')}, manifold={validity.get('manifold')}, "
-          f"outward normals={validity.get('outward')}, components={validity.get('components')}")
-    print(f"{report['triangles']} triangles, {report['points']} points, {report['strips']} strips, "
-          f"{report['bytes']} bytes, extracted in {report['seconds']:.3f} s at {iso:g} {volume.units_label}")
-    print(f"Wrote {report['output']} ({report['coordinates']} mm) and {report['sidecar']}")
+          f"outward normals={validity.get('outward_normals')}, components={validity.get('components')}")
+    print(f"Extracted {report['triangles']} triangles, {report['points']} points, {report['strips']} strips, "
+          f"{report['bytes']} bytes in {report['seconds']:.3f} s at {iso:g} {volume.units_label}")
+    print(f"Wrote {report['output']} ({report['written']['triangles']} triangles, {report['coordinates']} mm) "
+          f"and {report['sidecar']}")
     return 0
 
 
@@ -157,7 +160,7 @@ def _render(args) -> int:
     volume = _load(args)
     options = options_from_mapping(args.mode, {
         "lighting": args.lighting, "samples": args.samples, "light_samples": args.light_samples,
-        "slices": args.slices,
+        "slices": args.slices, "compositing": args.compositing,
     })
     settings = RenderSettings(
         mode=args.mode, preset=args.preset, size=tuple(args.size), view=args.view, azimuth=args.azimuth,
@@ -301,7 +304,10 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--samples", type=int, metavar="N", help="ray marching: samples across the volume "
                                                                  "(instead of --step)")
     render.add_argument("--light-samples", type=int, metavar="M", help="ray marching: samples towards the light")
-    render.add_argument("--slices", type=int, metavar="K", help="texture slicing: number of slices")
+    render.add_argument("--slices", type=int, metavar="K", help="texture slicing: number of slices (default: one "
+                                                                 "per smallest voxel spacing along the view)")
+    render.add_argument("--compositing", choices=("float", "uint8", "gl"),
+                        help="texture slicing: accumulate in float (default), in 8 bits, or draw with OpenGL")
     render.add_argument("--force", action="store_true", help="replace an existing output file")
     render.add_argument("--json", action="store_true", help="print one JSON object")
 

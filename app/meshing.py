@@ -18,6 +18,8 @@ import numpy as np
 
 from algorithms._progress import ProgressCallback, scaled
 
+from algorithms.surface_compare import triangulated
+
 from .io.atomic import atomic_output
 from .io.errors import FileExistsRefusal, VolumeWriteError
 from .modes import SurfaceResult, get_mode, polydata_stats
@@ -78,19 +80,21 @@ def to_world(polydata, volume: Volume, coordinates: str = "LPS"):
     return result
 
 
-def triangulated(polydata):
-    """Strips and polygons as triangles (STL, PLY and OBJ writers need triangles)."""
-    from vtkmodules.vtkFiltersCore import vtkTriangleFilter
+def merge_duplicate_points(polydata):
+    """One point per position (exact matches only): voxel-face surfaces store every face's corners apart; a
+    connected mesh is what an STL or PLY user expects. Cells, degenerate ones included, are kept as they are."""
+    from vtkmodules.vtkFiltersCore import vtkCleanPolyData
 
     from algorithms._vtk import run_algorithm
 
-    if polydata.GetNumberOfStrips() == 0 and polydata.GetNumberOfPolys() == polydata.GetNumberOfCells():
-        return polydata
-    triangles = vtkTriangleFilter()
-    triangles.SetInputData(polydata)
-    triangles.PassVertsOff()
-    triangles.PassLinesOff()
-    output = run_algorithm(triangles)
+    clean = vtkCleanPolyData()
+    clean.SetInputData(polydata)
+    clean.PointMergingOn()
+    clean.SetTolerance(0.0)
+    clean.ConvertPolysToLinesOff()
+    clean.ConvertLinesToPointsOff()
+    clean.ConvertStripsToPolysOff()
+    output = run_algorithm(clean)
     result = output.NewInstance()
     result.ShallowCopy(output)
     return result
@@ -165,7 +169,8 @@ class MeshExport:
     """Everything one export produced: files, counts, timing, validity and provenance."""
 
     paths: list[Path]
-    stats: dict[str, Any]
+    stats: dict[str, Any]  # of the extracted representation (before clean-up, merging and triangulation)
+    written: dict[str, Any]  # points, triangles, cells, strips of the file written
     validity: dict[str, Any] | None
     sidecar: dict[str, Any]
 
@@ -198,6 +203,10 @@ def export_mesh(volume: Volume, path, *, method: str, iso: float, step: int = 1,
                 progress: ProgressCallback = None, result: SurfaceResult | None = None) -> MeshExport:
     """Extract (unless ``result`` is given), clean up, validate and write a mesh with its sidecar.
 
+    On the way out, coincident points are merged (voxel-face surfaces become connected) and triangles that merging
+    collapses (zero area, where the isovalue equals sample values) are dropped; STL, PLY and OBJ get triangles.
+    ``MeshExport.stats`` describes the extracted representation, ``MeshExport.written`` the file.
+
     ``cleanup`` keys (all optional): ``smooth_iterations`` (windowed sinc), ``smooth_passband``,
     ``decimate`` (target reduction in [0, 1)), ``largest_component`` (bool), ``fill_holes_mm`` (max hole size).
     """
@@ -213,14 +222,15 @@ def export_mesh(volume: Volume, path, *, method: str, iso: float, step: int = 1,
         result = extract_surface(volume, method, iso, step=step, progress=scaled(progress, 0.0, 0.6))
     polydata = result.polydata
     polydata = mesh_cleanup.apply(polydata, progress=scaled(progress, 0.6, 0.85), **cleanup)
-    world = to_world(polydata, volume, coordinates)
+    world = merge_duplicate_points(to_world(polydata, volume, coordinates))
+    written = triangulated(world) if path.suffix.lower() != ".vtp" else world
     validity = mesh_cleanup.validity_report(triangulated(world)).as_dict()
     stats = dict(result.stats)
-    stats.update({k: v for k, v in polydata_stats(world).items() if k != "bytes"} if cleanup else {})
+    written_stats = {k: v for k, v in polydata_stats(written).items() if k != "bytes"}
     parameters = {"step": step, **cleanup}
     sidecar = mesh_provenance(volume, method=method, iso=iso, coordinates=coordinates.upper(), parameters=parameters,
-                              stats=stats, validity=validity)
+                              stats=written_stats, validity=validity)
     paths = write_mesh(world, path, overwrite=overwrite, sidecar=sidecar)
     if progress is not None:
         progress(1.0)
-    return MeshExport(paths, stats, validity, sidecar)
+    return MeshExport(paths, stats, written_stats, validity, sidecar)

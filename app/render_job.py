@@ -18,6 +18,7 @@ from algorithms._progress import ProgressCallback
 from algorithms.camera import Camera
 
 from .io.atomic import atomic_output
+from .compare import DISTANCE_ARRAY, image_difference, surface_distance
 from .meshing import default_iso
 from .modes import get_mode
 from .rendering import (
@@ -26,6 +27,7 @@ from .rendering import (
     OffscreenScene,
     default_camera,
     default_sample_distance,
+    distance_actor,
     surface_actor,
     turning_cameras,
     volume_prop,
@@ -88,6 +90,31 @@ class _SceneRenderer:
         self.scene.close()
 
 
+class _SliceStackRenderer:
+    """Texture slicing drawn by OpenGL: the slices are regenerated for each camera and blended by VTK."""
+
+    def __init__(self, slicer, volume: Volume, size, background) -> None:
+        from algorithms.texture_slicing import SliceStackProp
+
+        self.scene = OffscreenScene(size, background)
+        self.stack = SliceStackProp(slicer, user_matrix=volume.local_to_world)
+        self.stack.attach(self.scene.renderer)
+        self.to_local = np.linalg.inv(volume.local_to_world)
+        self.size = size
+
+    def frame(self, camera: Camera):
+        self.stack.update(camera.transformed(self.to_local), *self.size)
+        self.scene.set_camera(camera)
+        self.scene.render()
+        return None
+
+    def capture(self) -> np.ndarray:
+        return self.scene.capture()
+
+    def close(self) -> None:
+        self.scene.close()
+
+
 class _ImageRenderer:
     """Frames of one of our software renderers; cameras are converted to the volume frame."""
 
@@ -109,6 +136,29 @@ class _ImageRenderer:
         pass
 
 
+class _DifferenceRenderer(_ImageRenderer):
+    """Our renderer against a VTK mapper at the same camera: the frame is the heat map of their difference."""
+
+    def __init__(self, renderer, reference: OffscreenScene, volume: Volume, size, background) -> None:
+        super().__init__(renderer, volume, size, background)
+        self.reference = reference
+        self.difference = None
+
+    def frame(self, camera: Camera):
+        result = super().frame(camera)
+        self.reference.set_camera(camera)
+        self.reference.render()
+        self.difference = image_difference(result.to_uint8(self.background), self.reference.capture(),
+                                           background=self.background)
+        return result
+
+    def capture(self) -> np.ndarray:
+        return self.difference.heatmap
+
+    def close(self) -> None:
+        self.reference.close()
+
+
 def render_volume(volume: Volume, settings: RenderSettings, *, progress: ProgressCallback = None) -> RenderReport:
     """Render ``volume`` off-screen as ``settings`` say; time set-up and, with ``frames``, a turning camera."""
     mode = get_mode(settings.mode)
@@ -119,6 +169,8 @@ def render_volume(volume: Volume, settings: RenderSettings, *, progress: Progres
         raise ValueError(f"frames must be 0 or more, got {settings.frames}")
     if getattr(mode, "parallel_only", False) and not settings.parallel:
         raise ValueError(f"mode {mode.name!r} renders with parallel projection only; add --parallel")
+    if settings.options.get("compositing") == "gl" and not mode.name.startswith("slicing"):
+        raise ValueError("--compositing applies to the slicing modes only")
     transfer_function = transfer_function_for(volume, settings.preset, shading=settings.shading)
     camera = default_camera(volume, view=settings.view, azimuth=settings.azimuth, elevation=settings.elevation,
                             parallel=settings.parallel, aspect=width / height)
@@ -147,6 +199,25 @@ def render_volume(volume: Volume, settings: RenderSettings, *, progress: Progres
                                 flat=mode.flat_shading))
         runner: Any = _SceneRenderer(scene)
         info.update({"iso": iso, "iso_units": volume.units_label, "surface": result.stats})
+    elif mode.kind == "compare" and mode.measure == "surface-distance":
+        iso = settings.iso if settings.iso is not None else default_iso(volume)
+        result = surface_distance(volume, mode.test, mode.reference, iso, progress=progress)
+        scene = OffscreenScene((width, height), settings.background)
+        actor, bar = distance_actor(result.polydata, volume, DISTANCE_ARRAY)
+        scene.add(actor)
+        scene.renderer.AddViewProp(bar)
+        runner = _SceneRenderer(scene)
+        info.update({"iso": iso, "iso_units": volume.units_label, "surface": result.stats})
+    elif mode.kind == "compare":
+        reference = OffscreenScene((width, height), settings.background)
+        reference.add(volume_prop(volume, transfer_function, mapper=get_mode(mode.reference).mapper,
+                                  sample_distance=step, shading=transfer_function.shading.enabled))
+        options = dict(settings.options)
+        if settings.sample_distance is not None:
+            options["step"] = settings.sample_distance
+        renderer = get_mode(mode.test).create(volume, transfer_function, options)
+        runner = _DifferenceRenderer(renderer, reference, volume, (width, height), settings.background)
+        info["sample_distance_mm"] = step
     elif mode.kind == "volume":
         scene = OffscreenScene((width, height), settings.background)
         scene.add(volume_prop(volume, transfer_function, mapper=mode.mapper, sample_distance=step,
@@ -155,17 +226,25 @@ def render_volume(volume: Volume, settings: RenderSettings, *, progress: Progres
         info["sample_distance_mm"] = step
     else:
         options = dict(settings.options)
-        options.setdefault("step", step)
+        if settings.sample_distance is not None:
+            options["step"] = settings.sample_distance
+        gl = options.get("compositing") == "gl"
+        if gl:
+            options["compositing"] = "float"  # the slices; OpenGL's framebuffer does the compositing
         renderer = mode.create(volume, transfer_function, options)
-        runner = _ImageRenderer(renderer, volume, (width, height), settings.background)
-        info["sample_distance_mm"] = options["step"]
-        info["options"] = {k: v for k, v in options.items() if k != "step"}
+        if gl:
+            runner = _SliceStackRenderer(renderer, volume, (width, height), settings.background)
+        else:
+            runner = _ImageRenderer(renderer, volume, (width, height), settings.background)
+        info["options"] = {k: v for k, v in settings.options.items()}
     try:
         first = runner.frame(camera)
         setup_seconds = time.perf_counter() - start
         image = runner.capture()
         if first is not None and getattr(first, "stats", None):
             info["frame_stats"] = dict(first.stats)
+        if isinstance(runner, _DifferenceRenderer):
+            info["comparison"] = dict(runner.difference.numbers)
         if settings.frames:
             cameras = turning_cameras(camera, settings.frames)
             times = []

@@ -164,6 +164,32 @@ def surface_actor(polydata, volume: Volume, *, color=(0.9, 0.85, 0.75), flat: bo
     return actor
 
 
+def distance_actor(polydata, volume: Volume, array: str, *, top: float | None = None):
+    """A surface coloured by a point array of distances (mm): blue at 0, white halfway, red at ``top``
+    (default: the 99th percentile). Returns the actor and a ``vtkScalarBarActor`` titled with the units."""
+    from vtkmodules.util import numpy_support
+    from vtkmodules.vtkRenderingAnnotation import vtkScalarBarActor
+    from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
+
+    if top is None:
+        distances = numpy_support.vtk_to_numpy(polydata.GetPointData().GetArray(array))
+        top = float(np.percentile(distances, 99)) if distances.size else 1.0
+    top = max(top, 1e-6)
+    colors = vtkColorTransferFunction()
+    colors.AddRGBPoint(0.0, 0.23, 0.30, 0.75)
+    colors.AddRGBPoint(0.5 * top, 0.87, 0.87, 0.87)
+    colors.AddRGBPoint(top, 0.71, 0.02, 0.15)
+    actor = surface_actor(polydata, volume, scalars=array, scalar_range=(0.0, top), lookup_table=colors)
+    bar = vtkScalarBarActor()
+    bar.SetLookupTable(colors)
+    bar.SetTitle("distance (mm)")
+    bar.SetNumberOfLabels(3)
+    bar.SetWidth(0.08)
+    bar.SetHeight(0.5)
+    bar.SetPosition(0.9, 0.25)
+    return actor, bar
+
+
 # ------------------------------------------------------------------------------------------------------------
 # Off-screen scene
 # ------------------------------------------------------------------------------------------------------------

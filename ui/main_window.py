@@ -382,7 +382,7 @@ class MainWindow(QMainWindow):
                     coordinates=options["coordinates"], cleanup=options["cleanup"], overwrite=overwrite,
                     result=result)
         task.finished.connect(lambda export: self.statusBar().showMessage(
-            f"Wrote {export.paths[0]} ({export.stats['triangles']:,} triangles, {options['coordinates']} mm) and its "
+            f"Wrote {export.paths[0]} ({export.written['triangles']:,} triangles, {options['coordinates']} mm) and its "
             f"sidecar", 15000))
         task.failed.connect(lambda exc: self._report_error(f"Could not export {path}:\n\n{exc}", "Export failed"))
         self.tasks.start(task)

@@ -20,10 +20,11 @@ from qtpy.QtWidgets import QComboBox, QFrame, QHBoxLayout, QLabel, QSizePolicy, 
 
 from algorithms.camera import Camera
 from app.bench.common import Timing
+from app.compare import DISTANCE_ARRAY, image_difference, surface_distance
 from app.meshing import extract_surface
 from app.modes import get_mode, mode_names
 from app.render_job import surface_color
-from app.rendering import default_sample_distance, surface_actor, volume_prop
+from app.rendering import OffscreenScene, default_sample_distance, distance_actor, surface_actor, volume_prop
 from app.volume import Volume
 
 from .tasks import Task, TaskRunner
@@ -112,6 +113,8 @@ class RenderView(QFrame):
         self.surface = None  # SurfaceResult of the last full-resolution extraction
         self.surface_step = 1
         self.image_renderer = None
+        self._reference_scene: OffscreenScene | None = None  # VTK's rendering in an image comparison
+        self._scalar_bar = None
         self._content_task: Task | None = None
         self._frame_task: Task | None = None
         self._frame_wanted: tuple[int, int] | None = None
@@ -155,8 +158,16 @@ class RenderView(QFrame):
 
     def set_iso(self, iso: float, *, preview: bool = False) -> None:
         self.iso = iso
-        if self.volume is not None and get_mode(self.mode).kind == "surface":
+        if self.volume is not None and self._shows_surface():
             self._build_surface(step=2 if preview else 1)
+
+    def _shows_surface(self) -> bool:
+        mode = get_mode(self.mode)
+        return mode.kind == "surface" or (mode.kind == "compare" and mode.measure == "surface-distance")
+
+    def _shows_image(self) -> bool:
+        mode = get_mode(self.mode)
+        return mode.kind == "image" or (mode.kind == "compare" and mode.measure == "image-difference")
 
     def set_transfer_function(self, transfer_function) -> None:
         self.transfer_function = transfer_function
@@ -167,7 +178,7 @@ class RenderView(QFrame):
             self.prop.SetProperty(transfer_function.to_vtk_property())
             self._mark_not_ready()
             self.render(still=True)
-        elif kind == "image":
+        elif self._shows_image():
             self._build_image_renderer()
 
     def camera_moved(self) -> None:
@@ -175,8 +186,7 @@ class RenderView(QFrame):
         if self.volume is None:
             return
         self._mark_not_ready()
-        kind = get_mode(self.mode).kind
-        if kind == "image":
+        if self._shows_image():
             self._request_frame(preview=True)
         else:
             self.render(still=False)
@@ -206,6 +216,7 @@ class RenderView(QFrame):
             if task is not None:
                 task.cancel()
         self._idle.stop()
+        self._close_reference()
         self.plotter.close()
 
     # -- content ------------------------------------------------------------------------------------------------
@@ -219,13 +230,12 @@ class RenderView(QFrame):
         self._clear()
         if self.volume is None:
             return
-        kind = get_mode(mode).kind
-        if kind == "surface":
+        if self._shows_surface():
             self._build_surface(step=1)
-        elif kind == "volume":
-            self._build_volume_prop()
-        else:
+        elif self._shows_image():
             self._build_image_renderer()
+        else:
+            self._build_volume_prop()
 
     def _clear(self) -> None:
         for task in (self._content_task, self._frame_task):
@@ -238,17 +248,27 @@ class RenderView(QFrame):
         self.prop = None
         self.surface = None
         self.image_renderer = None
+        self._close_reference()
+        if self._scalar_bar is not None:
+            self.renderer.RemoveViewProp(self._scalar_bar)
+            self._scalar_bar = None
         self.renderer.TexturedBackgroundOff()
         self._frame_times.clear()
         self._content_stats = ""
         self._mark_not_ready()
         self._update_stats()
 
+    def _close_reference(self) -> None:
+        if self._reference_scene is not None:
+            self._reference_scene.close()
+            self._reference_scene = None
+
     def _content_complete(self) -> bool:
-        kind = get_mode(self.mode).kind if self.mode else ""
-        if kind == "surface":
+        if not self.mode:
+            return False
+        if self._shows_surface():
             return self.prop is not None and self.surface_step == 1 and self._content_task is None
-        if kind == "volume":
+        if get_mode(self.mode).kind == "volume":
             return self.prop is not None
         return False  # image modes signal readiness when a full-resolution frame arrives
 
@@ -267,9 +287,13 @@ class RenderView(QFrame):
     def _build_surface(self, *, step: int) -> None:
         if self._content_task is not None:
             self._content_task.cancel()
-        volume, mode, iso = self.volume, self.mode, self.iso
+        volume, mode, iso = self.volume, get_mode(self.mode), self.iso
         source = volume if step == 1 else _subsampled(volume, step)
-        task = Task(f"{get_mode(mode).label} at {iso:g} {volume.units_label}", extract_surface, source, mode, iso)
+        label = f"{mode.label} at {iso:g} {volume.units_label}"
+        if mode.kind == "compare":
+            task = Task(label, surface_distance, source, mode.test, mode.reference, iso)
+        else:
+            task = Task(label, extract_surface, source, mode.name, iso)
         task.finished.connect(lambda result, task=task, step=step: self._surface_ready(task, result, step))
         task.failed.connect(lambda exc, task=task: self._content_failed(task, exc))
         task.cancelled.connect(lambda task=task: self._content_cancelled(task))
@@ -285,27 +309,50 @@ class RenderView(QFrame):
             self.renderer.RemoveViewProp(self.prop)
         self.surface, self.surface_step = result, step
         mode = get_mode(self.mode)
-        self.prop = surface_actor(result.polydata, self.volume, color=surface_color(self.volume, self.iso),
-                                  flat=getattr(mode, "flat_shading", False))
-        self.renderer.AddActor(self.prop)
         stats = result.stats
         preview = f" (preview at 1/{step} resolution)" if step > 1 else ""
-        self._content_stats = (
-            f"{stats['points']:,} points, {stats['triangles']:,} triangles, {stats['strips']:,} strips, "
-            f"{_format_bytes(stats['bytes'])}, built in {stats['seconds']:.2f} s{preview}"
-        )
+        if DISTANCE_ARRAY in stats or result.polydata.GetPointData().GetArray(DISTANCE_ARRAY) is not None:
+            self.prop = self._distance_actor(result)
+            self._content_stats = (
+                f"distance to {get_mode(mode.reference).label}: Hausdorff {stats['hausdorff_mm']:.3f} mm, "
+                f"mean {stats['mean_mm']:.4f} mm, 95 % {stats['p95_mm']:.3f} mm{preview}"
+            )
+        else:
+            self.prop = surface_actor(result.polydata, self.volume, color=surface_color(self.volume, self.iso),
+                                      flat=getattr(mode, "flat_shading", False))
+            self._content_stats = (
+                f"{stats['points']:,} points, {stats['triangles']:,} triangles, {stats['strips']:,} strips, "
+                f"{_format_bytes(stats['bytes'])}, built in {stats['seconds']:.2f} s{preview}"
+            )
+        self.renderer.AddActor(self.prop)
         self._update_stats()
         self.render(still=True)
+
+    def _distance_actor(self, result):
+        """The surface coloured by its distance to the reference, with a colour bar in mm."""
+        actor, bar = distance_actor(result.polydata, self.volume, DISTANCE_ARRAY)
+        if self._scalar_bar is not None:
+            self.renderer.RemoveViewProp(self._scalar_bar)
+        self._scalar_bar = bar
+        self.renderer.AddViewProp(bar)
+        return actor
 
     def _build_image_renderer(self) -> None:
         if self._content_task is not None:
             self._content_task.cancel()
         mode = get_mode(self.mode)
         volume, function = self.volume, self.transfer_function
-        options: dict[str, Any] = {"step": default_sample_distance(volume)}
+        renderer_mode = get_mode(mode.test) if mode.kind == "compare" else mode
+        options: dict[str, Any] = {}
+        if mode.kind == "compare":
+            self._close_reference()
+            reference = get_mode(mode.reference)
+            self._reference_scene = OffscreenScene((64, 64), self.renderer.GetBackground())
+            self._reference_scene.add(volume_prop(volume, function, mapper=reference.mapper,
+                                                  sample_distance=default_sample_distance(volume), image=self.image))
 
         def create(progress=None):
-            return mode.create(volume, function, options)
+            return renderer_mode.create(volume, function, options)
 
         task = Task(f"{mode.label}: set-up", create)
         task.finished.connect(lambda renderer, task=task: self._image_renderer_ready(task, renderer))
@@ -320,21 +367,7 @@ class RenderView(QFrame):
             return
         self._content_task = None
         self.image_renderer = renderer
-        self._ensure_camera_proxy()
         self._request_frame(preview=False)
-
-    def _ensure_camera_proxy(self) -> None:
-        """An outline of the volume box, so the view has bounds to interact with around the image."""
-        if self.prop is None:
-            from vtkmodules.vtkFiltersModeling import vtkOutlineFilter
-
-            from algorithms._vtk import run_algorithm
-
-            outline = vtkOutlineFilter()
-            outline.SetInputData(self.image)
-            polydata = run_algorithm(outline)
-            self.prop = surface_actor(polydata, self.volume, color=(0.35, 0.35, 0.4))
-            self.renderer.AddActor(self.prop)
 
     def _content_failed(self, task: Task, exc: Exception) -> None:
         if task is self._content_task:
@@ -371,11 +404,27 @@ class RenderView(QFrame):
         self._frame_wanted = None
         full = (width, height) == self._viewport_pixels()
         world_camera = Camera.from_vtk(self.renderer.GetActiveCamera())
+        if getattr(get_mode(self.mode), "parallel_only", False):
+            # Shear-warp needs parallel projection: show the linked perspective view's focal plane in parallel.
+            world_camera = world_camera.as_parallel()
         local_camera = world_camera.transformed(np.linalg.inv(self.volume.local_to_world))
         renderer = self.image_renderer
+        background = self.renderer.GetBackground()
+        reference = None
+        if self._reference_scene is not None:
+            # VTK's image is rendered here, on the GUI thread (OpenGL); ours and the difference in the worker.
+            self._reference_scene.window.SetSize(width, height)
+            self._reference_scene.set_camera(world_camera)
+            self._reference_scene.render()
+            reference = self._reference_scene.capture()
 
         def frame(progress=None):
-            return renderer.render(local_camera, width, height, progress=progress)
+            result = renderer.render(local_camera, width, height, progress=progress)
+            image = result.to_uint8(background)
+            if reference is None:
+                return image, dict(result.stats)
+            difference = image_difference(image, reference, background=background)
+            return difference.heatmap, {**difference.numbers, "seconds": result.stats.get("seconds", 0.0)}
 
         task = Task(f"{get_mode(self.mode).label}: frame", frame)
         task.finished.connect(lambda result, task=task, full=full: self._frame_ready(task, result, full))
@@ -387,15 +436,13 @@ class RenderView(QFrame):
     def _frame_ready(self, task: Task, result, full: bool) -> None:
         if task is not self._frame_task:
             return
-        self._show_image(result.to_uint8(self.renderer.GetBackground()))
-        seconds = float(result.stats.get("seconds", 0.0))
+        image, stats = result
+        self._show_image(image)
+        seconds = float(stats.get("seconds", 0.0))
         self._frame_times.append(seconds)
         self._last_frame = seconds
-        details = ", ".join(
-            f"{key.replace('_', ' ')} {value:.3g}" for key, value in result.stats.items()
-            if key in ("samples_per_ray", "early_terminated", "slices", "voxels_composited")
-        )
-        height, width = result.rgba.shape[:2]
+        details = ", ".join(_format_stat(key, value) for key, value in stats.items() if key in _SHOWN_STATS)
+        height, width = image.shape[:2]
         self._content_stats = f"{width}x{height} px" + (f", {details}" if details else "") + ("" if full else " (preview)")
         self._update_stats()
         self._frame_done(task)
@@ -432,7 +479,7 @@ class RenderView(QFrame):
     def _camera_rested(self) -> None:
         if self.volume is None:
             return
-        if get_mode(self.mode).kind == "image":
+        if self._shows_image():
             self._request_frame(preview=False)
         else:
             self.render(still=True)
@@ -442,7 +489,7 @@ class RenderView(QFrame):
         self._render_start = time.perf_counter()
 
     def _render_ended(self, *args) -> None:
-        if self.mode and get_mode(self.mode).kind != "image":
+        if self.mode and not self._shows_image():
             seconds = time.perf_counter() - self._render_start
             self._frame_times.append(seconds)
             self._last_frame = seconds
@@ -463,6 +510,24 @@ class RenderView(QFrame):
         if not self._is_ready:
             self._is_ready = True
             self.ready.emit(self.index)
+
+
+_SHOWN_STATS = ("samples_per_ray", "early_terminated", "slices", "voxels_composited", "psnr_foreground", "rmse",
+                "ssim")
+
+
+def _format_stat(key: str, value: float) -> str:
+    if key == "early_terminated":
+        return f"{100 * value:.0f} % of rays terminated early"
+    if key == "samples_per_ray":
+        return f"{value:.1f} samples per ray"
+    if key == "psnr_foreground":
+        return f"PSNR {value:.1f} dB (foreground)"
+    if key == "rmse":
+        return f"RMSE {value:.4f}"
+    if key == "ssim":
+        return f"SSIM {value:.3f}"
+    return f"{key.replace('_', ' ')} {value:.3g}"
 
 
 def _subsampled(volume: Volume, step: int) -> Volume:
