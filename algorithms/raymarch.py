@@ -91,16 +91,11 @@ import time
 import numba
 import numpy as np
 from scipy.ndimage import distance_transform_cdt
-from vtkmodules.util import numpy_support
-from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
-from vtkmodules.vtkCommonCore import vtkCommand
-from vtkmodules.vtkCommonDataModel import vtkImageData
-from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 
 from . import _raymarch_kernels as kernels
 from ._progress import ProgressCallback, report, scaled
+from ._render_filter import RendererFilter
 from ._sampling import validated_spacing, validated_volume
-from ._vtk import array_from_image, progress_for
 from .camera import Camera
 from .render_result import RenderResult
 from .transfer import TransferTable
@@ -413,15 +408,11 @@ def raymarch(
     return renderer.render(camera, width, height, progress=scaled(progress, 0.2, 1.0))
 
 
-class RaymarchFilter(VTKPythonAlgorithmBase):
+class RaymarchFilter(RendererFilter):
     """VTK filter around :class:`RaymarchRenderer`: ``vtkImageData`` volume in, RGBA ``vtkImageData`` frame out.
 
-    The input's point scalars are the volume; its spacing is honoured, its origin by shifting the camera (the
-    camera is given in the input's coordinates), and its direction matrix must be the identity. The output is an
-    ``width x height x 1`` image of unsigned char RGBA (premultiplied colour and opacity, 0-255), rows from the
-    bottom as in every VTK image (``vtkWindowToImageFilter``'s order). The renderer's set-up is kept between
-    updates and rebuilt only when the input, the table or a set-up option changes, so moving the camera costs one
-    frame.
+    See :class:`algorithms._render_filter.RendererFilter` for the input, output and camera conventions; the
+    lighting model and the sample step are set-up options (a change rebuilds the renderer).
 
     Examples
     --------
@@ -434,46 +425,14 @@ class RaymarchFilter(VTKPythonAlgorithmBase):
     >>> rgba_image = run_algorithm(f)
     """
 
+    label = "RaymarchFilter"
+
     def __init__(self) -> None:
-        super().__init__(nInputPorts=1, inputType="vtkImageData", nOutputPorts=1, outputType="vtkImageData")
-        self._camera: Camera | None = None
-        self._size = (256, 256)
-        self._table: TransferTable | None = None
+        super().__init__()
         self._lighting = "emission"
         self._step: float | None = None
-        self._renderer: RaymarchRenderer | None = None
-        self._renderer_key = None
-        self.last_stats: dict[str, float] = {}
 
-    def _set(self, attribute: str, value) -> None:
-        if getattr(self, attribute) != value:
-            setattr(self, attribute, value)
-            self.Modified()
-
-    def SetCamera(self, camera: Camera) -> None:  # noqa: N802 - VTK naming
-        if not isinstance(camera, Camera):
-            raise TypeError(f"camera must be an algorithms.camera.Camera, got {type(camera).__name__}")
-        self._set("_camera", camera)
-
-    def GetCamera(self) -> Camera | None:  # noqa: N802
-        return self._camera
-
-    def SetImageSize(self, width: int, height: int) -> None:  # noqa: N802
-        if int(width) != width or int(height) != height or width < 1 or height < 1:
-            raise ValueError(f"image size must be positive integers, got {width} x {height}")
-        self._set("_size", (int(width), int(height)))
-
-    def GetImageSize(self) -> tuple[int, int]:  # noqa: N802
-        return self._size
-
-    def SetTransferTable(self, table: TransferTable) -> None:  # noqa: N802
-        if not isinstance(table, TransferTable):
-            raise TypeError(f"table must be an algorithms.transfer.TransferTable, got {type(table).__name__}")
-        if self._table is not table:
-            self._table = table
-            self.Modified()
-
-    def SetLighting(self, lighting: str) -> None:  # noqa: N802
+    def SetLighting(self, lighting: str) -> None:  # noqa: N802 - VTK naming
         if lighting not in LIGHTING_MODELS:
             raise ValueError(f"lighting must be one of {', '.join(LIGHTING_MODELS)}, got {lighting!r}")
         self._set("_lighting", lighting)
@@ -492,48 +451,11 @@ class RaymarchFilter(VTKPythonAlgorithmBase):
     def GetStep(self) -> float | None:  # noqa: N802
         return self._step
 
-    def RequestInformation(self, request, in_info, out_info):  # noqa: N802
-        width, height = self._size
-        info = out_info.GetInformationObject(0)
-        info.Set(vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT(), (0, width - 1, 0, height - 1, 0, 0), 6)
-        return 1
+    def _setup_key(self) -> tuple:
+        return (self._lighting, self._step)
 
-    def RequestData(self, request, in_info, out_info):  # noqa: N802
-        image = vtkImageData.GetData(in_info[0], 0)
-        output = vtkImageData.GetData(out_info, 0)
-        direction = np.array([image.GetDirectionMatrix().GetElement(r, c) for r in range(3) for c in range(3)])
-        problem = None
-        if self._camera is None or self._table is None:
-            problem = "RaymarchFilter needs a camera (SetCamera) and a transfer table (SetTransferTable)"
-        elif not np.allclose(direction, np.eye(3).ravel()):
-            problem = "RaymarchFilter expects an image with the identity direction matrix"
-        if problem is not None:
-            # Reported as VTK reports errors, so run_algorithm raises a VTKError with this message.
-            self.InvokeEvent(vtkCommand.ErrorEvent, problem)
-            return 0
-        progress = progress_for(self)
-        key = (image.GetMTime(), id(self._table), self._lighting, self._step, image.GetSpacing())
-        if self._renderer is None or key != self._renderer_key:
-            self._renderer = RaymarchRenderer(
-                array_from_image(image), image.GetSpacing(), self._table, step=self._step, lighting=self._lighting,
-                progress=scaled(progress, 0.0, 0.3),
-            )
-            self._renderer_key = key
-        origin = np.asarray(image.GetOrigin(), dtype=np.float64)
-        shift = np.eye(4)
-        shift[:3, 3] = -origin
-        width, height = self._size
-        result = self._renderer.render(self._camera.transformed(shift), width, height,
-                                       progress=scaled(progress, 0.3, 1.0))
-        self.last_stats = dict(result.stats)
-        pixels = np.clip(np.rint(result.rgba[::-1] * 255.0), 0, 255).astype(np.uint8)
-        output.SetDimensions(width, height, 1)
-        output.SetSpacing(1.0, 1.0, 1.0)
-        output.SetOrigin(0.0, 0.0, 0.0)
-        scalars = numpy_support.numpy_to_vtk(pixels.reshape(-1, 4), deep=True)
-        scalars.SetName("rgba")
-        output.GetPointData().SetScalars(scalars)
-        return 1
+    def _create_renderer(self, array, spacing, table, progress) -> RaymarchRenderer:
+        return RaymarchRenderer(array, spacing, table, step=self._step, lighting=self._lighting, progress=progress)
 
 
 __all__ = [

@@ -92,14 +92,11 @@ from typing import Sequence
 
 import numba
 import numpy as np
-from vtkmodules.util import numpy_support
-from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
-from vtkmodules.vtkCommonDataModel import vtkImageData
-from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
 
 from . import _shear_warp_kernels as kernels
 from ._progress import ProgressCallback, report, scaled
-from ._vtk import array_from_image, progress_for
+from ._render_filter import RendererFilter
+from ._sampling import validated_spacing
 from .camera import Camera
 from .render_result import RenderResult
 from .transfer import TransferTable
@@ -275,7 +272,7 @@ def factorize(camera: Camera, shape: Sequence[int], spacing: Sequence[float], wi
             "(Lacroute 1995) is not implemented: use a camera with parallel_projection=True"
         )
     nz, ny, nx = _checked_shape(shape)
-    spacing = _checked_spacing(spacing)
+    spacing = tuple(validated_spacing(spacing))
     width, height = _checked_size(width, height)
 
     view = view_matrix(camera, spacing, width, height)
@@ -619,7 +616,7 @@ class ShearWarpRenderer:
         _checked_shape(volume.shape)
         if volume.dtype.kind == "f" and not np.all(np.isfinite(volume)):
             raise ValueError("volume_array contains NaN or infinite values")
-        spacing = _checked_spacing(spacing)
+        spacing = tuple(validated_spacing(spacing))
         if not isinstance(table, TransferTable):
             raise ValueError(f"table must be an algorithms.transfer.TransferTable, got {type(table).__name__}")
         for name, value in (("ambient", ambient), ("diffuse", diffuse), ("specular", specular)):
@@ -692,7 +689,7 @@ class ShearWarpRenderer:
             raise ValueError(f"table must be an algorithms.transfer.TransferTable, got {type(table).__name__}")
         if table.size > MAX_TABLE_ENTRIES:
             raise ValueError(f"transfer tables of at most {MAX_TABLE_ENTRIES} entries are supported, got {table.size}")
-        if self.table is not None and _same_table(table, self.table):
+        if self.table is not None and table.same_as(self.table):
             return
         begin = time.perf_counter()
         classes = kernels.classify(self._values, float(table.value_min), float(table.scale), table.size - 1)
@@ -830,14 +827,6 @@ def _standard_copy(array: np.ndarray, principal_axis: int) -> np.ndarray:
     return out
 
 
-def _same_table(a: TransferTable, b: TransferTable) -> bool:
-    return (
-        a is b
-        or (a.value_min == b.value_min and a.value_max == b.value_max and a.unit_distance == b.unit_distance
-            and a.rgba.shape == b.rgba.shape and np.array_equal(a.rgba, b.rgba))
-    )
-
-
 def _prescaled(volume: np.ndarray, spacing: tuple[float, float, float], step: float):
     """The volume resampled (trilinear) to about ``step`` mm per voxel over the same box, and its new spacing.
 
@@ -878,13 +867,6 @@ def _checked_shape(shape) -> tuple[int, int, int]:
     return shape
 
 
-def _checked_spacing(spacing) -> tuple[float, float, float]:
-    values = tuple(float(s) for s in np.asarray(spacing, dtype=np.float64).reshape(-1))
-    if len(values) != 3 or not all(np.isfinite(values)) or min(values) <= 0:
-        raise ValueError(f"spacing must be three positive millimetre values (sx, sy, sz), got {spacing!r}")
-    return values
-
-
 def _checked_size(width, height) -> tuple[int, int]:
     if isinstance(width, bool) or isinstance(height, bool) or int(width) != width or int(height) != height:
         raise ValueError(f"image size must be whole pixels, got {width} x {height}")
@@ -921,15 +903,12 @@ def shading_banding(image: np.ndarray, mask: np.ndarray) -> float:
 # --------------------------------------------------------------------------------------------------------------
 # VTK filter
 # --------------------------------------------------------------------------------------------------------------
-class ShearWarpFilter(VTKPythonAlgorithmBase):
+class ShearWarpFilter(RendererFilter):
     """VTK filter around :class:`ShearWarpRenderer`: ``vtkImageData`` (point scalars) in, RGBA image out.
 
-    The output is a ``width x height x 1`` image with 4-component unsigned char point scalars named ``"rgba"``:
-    premultiplied colour and opacity, VTK's image row order (row 0 at the *bottom*, like
-    ``vtkWindowToImageFilter``). The camera (parallel) is given in the input image's frame: the image's origin is
-    honoured, its direction matrix must be the identity. The renderer (the set-up: classification and encoding)
-    is kept between updates and rebuilt only when the input, the transfer table or a set-up option changes; a
-    camera change only renders again.
+    See :class:`algorithms._render_filter.RendererFilter` for the input, output and camera conventions (the
+    camera must be parallel). Shading and early termination are set-up options: a change rebuilds the
+    classification and encodings; a camera change only renders again.
 
     Examples
     --------
@@ -942,87 +921,25 @@ class ShearWarpFilter(VTKPythonAlgorithmBase):
     >>> rgba_image = run_algorithm(f)
     """
 
+    label = "ShearWarpFilter"
+
     def __init__(self) -> None:
-        super().__init__(nInputPorts=1, inputType="vtkImageData", nOutputPorts=1, outputType="vtkImageData")
-        self._camera: Camera | None = None
-        self._size = (256, 256)
-        self._table: TransferTable | None = None
+        super().__init__()
         self._shading = False
         self._early_termination: float | None = 0.99
-        self._renderer: ShearWarpRenderer | None = None
-        self._renderer_key: tuple | None = None
 
-    def SetCamera(self, camera: Camera) -> None:  # noqa: N802 - VTK naming
-        if not isinstance(camera, Camera):
-            raise ValueError(f"camera must be an algorithms.camera.Camera, got {type(camera).__name__}")
-        if camera != self._camera:
-            self._camera = camera
-            self.Modified()
-
-    def GetCamera(self) -> Camera | None:  # noqa: N802
-        return self._camera
-
-    def SetImageSize(self, width: int, height: int) -> None:  # noqa: N802
-        size = _checked_size(width, height)
-        if size != self._size:
-            self._size = size
-            self.Modified()
-
-    def GetImageSize(self) -> tuple[int, int]:  # noqa: N802
-        return self._size
-
-    def SetTransferTable(self, table: TransferTable) -> None:  # noqa: N802
-        if not isinstance(table, TransferTable):
-            raise ValueError(f"table must be an algorithms.transfer.TransferTable, got {type(table).__name__}")
-        if self._table is None or not _same_table(table, self._table):
-            self._table = table
-            self.Modified()
-
-    def SetShading(self, shading: bool) -> None:  # noqa: N802
-        if bool(shading) != self._shading:
-            self._shading = bool(shading)
-            self.Modified()
+    def SetShading(self, shading: bool) -> None:  # noqa: N802 - VTK naming
+        self._set("_shading", bool(shading))
 
     def SetEarlyTermination(self, threshold: float | None) -> None:  # noqa: N802
         if threshold is not None and not 0.0 < threshold <= 1.0:
             raise ValueError(f"early_termination must lie in (0, 1] or be None, got {threshold}")
-        if threshold != self._early_termination:
-            self._early_termination = threshold
-            self.Modified()
+        self._set("_early_termination", threshold)
 
-    def RequestInformation(self, request, in_info, out_info):  # noqa: N802
-        width, height = self._size
-        out_info.GetInformationObject(0).Set(
-            vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT(), (0, width - 1, 0, height - 1, 0, 0), 6
-        )
-        return 1
+    def _setup_key(self) -> tuple:
+        return (self._shading, self._early_termination)
 
-    def RequestData(self, request, in_info, out_info):  # noqa: N802
-        image = vtkImageData.GetData(in_info[0], 0)
-        output = vtkImageData.GetData(out_info, 0)
-        if self._camera is None or self._table is None:
-            raise ValueError("ShearWarpFilter needs a camera (SetCamera) and a transfer table (SetTransferTable)")
-        direction = np.array([image.GetDirectionMatrix().GetElement(r, c) for r in range(3) for c in range(3)])
-        if not np.allclose(direction, np.eye(3).ravel()):
-            raise ValueError("ShearWarpFilter needs an input image with an identity direction matrix")
-        progress = progress_for(self)
-        key = (image.GetMTime(), id(image), id(self._table), self._shading, self._early_termination)
-        if key != self._renderer_key:
-            self._renderer = ShearWarpRenderer(
-                array_from_image(image), image.GetSpacing(), self._table, shading=self._shading,
-                early_termination=self._early_termination, progress=scaled(progress, 0.0, 0.5),
-            )
-            self._renderer_key = key
-        shift = np.eye(4)
-        shift[:3, 3] = -np.asarray(image.GetOrigin())
-        camera = self._camera.transformed(shift)
-        width, height = self._size
-        result = self._renderer.render(camera, width, height, progress=scaled(progress, 0.5, 1.0))
-        pixels = np.clip(np.rint(result.rgba[::-1] * 255.0), 0, 255).astype(np.uint8)
-        scalars = numpy_support.numpy_to_vtk(pixels.reshape(-1, 4), deep=True)
-        scalars.SetName("rgba")
-        output.SetDimensions(width, height, 1)
-        output.SetOrigin(0.0, 0.0, 0.0)
-        output.SetSpacing(1.0, 1.0, 1.0)
-        output.GetPointData().SetScalars(scalars)
-        return 1
+    def _create_renderer(self, array, spacing, table, progress) -> ShearWarpRenderer:
+        return ShearWarpRenderer(array, spacing, table, shading=self._shading,
+                                 early_termination=self._early_termination, progress=progress)
+

@@ -89,6 +89,14 @@ class TransferTable:
         rgba[:, 3] = np.clip(_piecewise(opacity_points, samples)[:, 0], 0, 1)
         return cls(rgba, lo, hi, unit_distance)
 
+    def same_as(self, other: "TransferTable") -> bool:
+        """Same range, unit distance and entries (dataclass equality cannot compare the arrays)."""
+        return self is other or (
+            self.value_min == other.value_min and self.value_max == other.value_max
+            and self.unit_distance == other.unit_distance and self.rgba.shape == other.rgba.shape
+            and bool(np.array_equal(self.rgba, other.rgba))
+        )
+
     @property
     def size(self) -> int:
         return len(self.rgba)

@@ -253,6 +253,20 @@ class Volume:
         values.update(changes)
         return Volume(array, **values)
 
+    def crop(self, i: tuple[int, int], j: tuple[int, int], k: tuple[int, int]) -> "Volume":
+        """The voxels ``i[0] <= i < i[1]`` (and likewise j, k) as a volume at the same place in the patient."""
+        bounds = []
+        for name, (lo, hi), size in zip("ijk", (i, j, k), self.dimensions):
+            if not 0 <= lo < hi <= size:
+                raise ValueError(f"crop range {name} = {lo}..{hi} must lie within 0..{size} and not be empty")
+            bounds.append((int(lo), int(hi)))
+        (i0, i1), (j0, j1), (k0, k1) = bounds
+        return Volume(
+            np.ascontiguousarray(self.array[k0:k1, j0:j1, i0:i1]), spacing=self.spacing,
+            origin=tuple(self.index_to_world((i0, j0, k0))), direction=self.direction, modality=self.modality,
+            units=self.units, metadata=dict(self.metadata),
+        )
+
     def describe(self) -> dict[str, Any]:
         """The facts ``voxelscope info`` prints, JSON-serialisable."""
         lo, hi = self.value_range

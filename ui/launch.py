@@ -60,6 +60,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     configure_vtk()
     qt_app = application()
     window = MainWindow()
+    window.ask_for_series = not (args.exit or args.screenshot)
     if args.layout:
         window.model.set_layout(args.layout)
     for index, mode in enumerate(modes[:4]):

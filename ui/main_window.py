@@ -59,7 +59,7 @@ class MainWindow(QMainWindow):
         self.camera_link = CameraLink(self)
         self.active_view = 0
         self.image = None  # shared vtkImageData of the volume (volume frame)
-        self._errors: list[str] = []
+        self.ask_for_series = True  # False in scripted runs: open the largest series without a dialog
 
         # Views
         self.views: list[RenderView] = []
@@ -152,6 +152,7 @@ class MainWindow(QMainWindow):
         file_menu = self.menuBar().addMenu("&File")
         self.open_action = self._action(file_menu, "&Open volume...", self.open_file_dialog, QKeySequence.Open)
         self._action(file_menu, "Open &DICOM folder...", self.open_folder_dialog, "Ctrl+D")
+        self._action(file_menu, "Open another series of this &folder...", self.open_other_series)
         self._action(file_menu, "Open &sample CT", lambda: self.open_path(sample_path("ct")))
         self._action(file_menu, "Open sample &MRI", lambda: self.open_path(sample_path("mri")))
         self.recent_menu = file_menu.addMenu("&Recent")
@@ -221,13 +222,31 @@ class MainWindow(QMainWindow):
         self.tasks.start(task)
 
     def _series_listed(self, path: Path, series: list[dict]) -> None:
-        if len(series) > 1:
+        """Open the largest series, asking first only when another one is a real alternative (a stack of at least
+        a quarter of its images, not a localizer); scripted runs never ask."""
+        if not series:
+            self._load_error(path, ValueError("the folder holds no DICOM image series"))
+            return
+        alternatives = [s for s in series[1:] if s["slices"] >= max(2, series[0]["slices"] // 4)]
+        if alternatives and self.ask_for_series:
             uid = SeriesChooser.ask(str(path), series, self)
             if uid is None:
                 return
-            self.open_path(path, series_uid=uid)
         else:
-            self.open_path(path, series_uid=series[0]["series_uid"] if series else "")
+            uid = series[0]["series_uid"]
+        self.open_path(path, series_uid=uid)
+
+    def open_other_series(self) -> None:
+        """Choose another image series of the DICOM folder on show."""
+        volume = self.model.volume
+        folder = Path(volume.metadata.get("source_path", "")) if volume is not None else None
+        if folder is None or not folder.is_dir():
+            self._report_error("The volume on show is not a DICOM folder.", "No other series")
+            return
+        series = list_series(folder)
+        uid = SeriesChooser.ask(str(folder), series, self)
+        if uid is not None:
+            self.open_path(folder, series_uid=uid)
 
     def _loaded(self, path: Path, volume) -> None:
         self._add_recent(path)
@@ -243,7 +262,6 @@ class MainWindow(QMainWindow):
         self._report_error(f"Could not open {path}:\n\n{message}", title="Could not open the volume")
 
     def _report_error(self, message: str, title: str = "Voxelscope") -> None:
-        self._errors.append(message)
         self.statusBar().showMessage(message.splitlines()[0], 15000)
         box = QMessageBox(QMessageBox.Warning, title, message, QMessageBox.Ok, self)
         box.setObjectName("error-dialog")

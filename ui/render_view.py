@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from pyvistaqt import QtInteractor
 from qtpy.QtCore import QTimer, Signal
-from qtpy.QtWidgets import QComboBox, QFrame, QHBoxLayout, QLabel, QSizePolicy, QVBoxLayout, QWidget
+from qtpy.QtWidgets import QComboBox, QFrame, QHBoxLayout, QLabel, QSizePolicy, QVBoxLayout
 
 from algorithms.camera import Camera
 from app.bench.common import Timing

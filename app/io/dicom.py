@@ -31,7 +31,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from .errors import CorruptFileError, DicomSeriesError, MissingDecoderError, VolumeReadError
+from .errors import CorruptFileError, DicomSeriesError, MissingDecoderError
 
 #: Tolerance on slice spacing regularity, as a fraction of the median spacing.
 SPACING_TOLERANCE = 0.01
@@ -697,7 +697,6 @@ def write_dicom_series(
     Values are stored as ``(value - intercept) / slope`` in unsigned 16 bits when ``rescale_intercept`` is given
     (e.g. ``-1024`` for CT, like most scanners), else as signed 16 bits with intercept 0. Returns the file paths.
     """
-    pydicom = _pydicom()
     from pydicom.dataset import FileDataset, FileMetaDataset
     from pydicom.uid import ExplicitVRLittleEndian, generate_uid
 

@@ -526,11 +526,11 @@ def test_render_and_helper_value_errors():
         shading_banding(np.zeros((8, 8, 3)), np.zeros((8, 8), bool))
     with pytest.raises(ValueError, match="image must be"):
         shading_banding(np.zeros((8, 8)), np.ones((8, 8), bool))
-    with pytest.raises(ValueError, match="camera"):
+    with pytest.raises(TypeError, match="Camera"):
         ShearWarpFilter().SetCamera(None)
     with pytest.raises(ValueError, match="image size"):
         ShearWarpFilter().SetImageSize(0, 4)
-    with pytest.raises(ValueError, match="TransferTable"):
+    with pytest.raises(TypeError, match="TransferTable"):
         ShearWarpFilter().SetTransferTable(None)
     with pytest.raises(ValueError, match="early_termination"):
         ShearWarpFilter().SetEarlyTermination(0.0)

@@ -217,6 +217,17 @@ def test_volume_model_axis_order_and_vtk_conversion():
     assert np.allclose(volume.world_to_index(volume.index_to_world((1.5, 0.25, 1.0))), (1.5, 0.25, 1.0))
 
 
+def test_crop_keeps_world_positions():
+    volume = small_ct()
+    volume.direction = tilted_direction(25.0)
+    crop = volume.crop((3, 20), (5, 30), (2, 9))
+    assert crop.dimensions == (17, 25, 7)
+    assert np.allclose(crop.index_to_world((0, 0, 0)), volume.index_to_world((3, 5, 2)))
+    assert crop.array[1, 2, 3] == volume.array[3, 7, 6]
+    with pytest.raises(ValueError, match="crop range j = 5..5"):
+        volume.crop((0, 4), (5, 5), (0, 2))
+
+
 def test_volume_validation():
     with pytest.raises(ValueError, match="3D array"):
         Volume(np.zeros((3, 3)))

@@ -78,3 +78,15 @@ def test_slicing_modes_run_live(qtbot, window, small_ct_file):
     window.views[0].render(still=False)
     wait_ready(qtbot, window)
     assert np.isfinite(float(re.search(r"slices ([0-9.]+)", window.views[1].stats_label.text()).group(1)))
+
+
+def test_marching_cubes_and_its_distance_to_flying_edges(qtbot, window, small_ct_file):
+    window.model.set_layout("1x2")
+    window.model.set_view_mode(0, "marching-cubes")
+    window.model.set_view_mode(1, "marching-cubes-vs-flying-edges")
+    open_and_wait(qtbot, window, small_ct_file)
+    assert "triangles" in window.views[0].stats_label.text()
+    text = window.views[1].stats_label.text()
+    hausdorff = float(re.search(r"Hausdorff ([0-9.e+-]+) mm", text).group(1))
+    assert hausdorff < 0.05  # the same isosurface up to how each method places vertices where samples equal iso
+    assert window.views[1]._scalar_bar is not None and window.views[1].capture().mean() > 3

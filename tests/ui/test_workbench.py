@@ -7,7 +7,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pytest
 from qtpy.QtCore import QTimer
 from qtpy.QtWidgets import QApplication, QFileDialog, QMessageBox
 
@@ -210,3 +209,37 @@ def test_gui_stays_responsive_while_meshing_and_cancel_stops(qtbot, window, tmp_
     assert time.perf_counter() - pressed < 0.5 * computed
     assert view.stats_label.text().startswith("cancelled")
     assert view.surface.stats["triangles"] == triangles
+
+
+def test_dicom_folder_series_choice(qtbot, window, tmp_path, monkeypatch):
+    """A localizer beside the series opens without a question; two real series ask which one to open."""
+    from app.io import write_dicom_series
+    from ui.dialogs import SeriesChooser
+
+    from ..app.dicom_helpers import small_ct, write_scanner_folder
+
+    volume = small_ct(shape=(12, 40, 36))
+    write_scanner_folder(volume, tmp_path / "scout")
+
+    def no_question(*args, **kwargs):
+        raise AssertionError("the series chooser should not open for a localizer")
+
+    monkeypatch.setattr(SeriesChooser, "ask", classmethod(no_question))
+    open_and_wait(qtbot, window, tmp_path / "scout")
+    assert window.model.volume.dimensions == volume.dimensions
+
+    second = small_ct(shape=(10, 30, 30))
+    write_dicom_series(volume, tmp_path / "two" / "a", rescale_intercept=-1024, description="first")
+    uid = "1.2.826.0.1.3680043.8.498.12121"
+    write_dicom_series(second, tmp_path / "two" / "b", rescale_intercept=-1024, description="second", series_uid=uid)
+    offered = []
+
+    def choose_second(cls, folder, series, parent=None):
+        offered.extend(s["description"] for s in series)
+        return uid
+
+    monkeypatch.setattr(SeriesChooser, "ask", classmethod(choose_second))
+    open_and_wait(qtbot, window, tmp_path / "two")
+    assert offered == ["first", "second"]
+    assert window.model.volume.dimensions == second.dimensions
+    assert window.model.volume.metadata["series_uid"] == uid
