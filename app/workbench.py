@@ -120,6 +120,12 @@ class WorkbenchModel:
             raise ValueError("no transfer function to edit")
         self.set_transfer_function(self.transfer_function.with_opacity_points(points))
 
+    def set_color_points(self, points: Sequence[Sequence[float]]) -> None:
+        """Replace the colour curve; points are (value, r, g, b) rows, colours in [0, 1]."""
+        if self.transfer_function is None:
+            raise ValueError("no transfer function to edit")
+        self.set_transfer_function(self.transfer_function.with_color_points(points))
+
     def set_shading(self, **changes) -> None:
         """Change shading terms: ``enabled``, ``ambient``, ``diffuse``, ``specular``, ``specular_power``."""
         if self.transfer_function is None:

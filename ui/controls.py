@@ -84,7 +84,8 @@ class ControlPanel(QWidget):
             self.preset_box.addItem(name, name)
             self.preset_box.setItemData(self.preset_box.count() - 1, preset.description, Qt.ToolTipRole)
         self.curve = TransferFunctionEditor()
-        self.curve.setToolTip("Drag a point to move it, double-click to add one, right-click to remove one")
+        self.curve.setToolTip("Opacity: drag a point to move it, double-click to add one, right-click to remove one.\n"
+                              "Colour: drag a marker under the colour bar, double-click it to choose its colour.")
         tf_layout.addWidget(self.preset_box)
         tf_layout.addWidget(self.curve)
         layout.addWidget(tf_box)
@@ -157,6 +158,7 @@ class ControlPanel(QWidget):
         self.histogram.iso_released.connect(self._iso_set)
         self.preset_box.activated.connect(lambda _: self.model.set_preset(self.preset_box.currentData()))
         self.curve.points_changed.connect(self.model.set_opacity_points)
+        self.curve.color_points_changed.connect(self.model.set_color_points)
         self.shading_check.toggled.connect(lambda on: self.model.set_shading(enabled=on))
         self.window_spin.valueChanged.connect(lambda w: self.model.set_window_level(w, self.model.level))
         self.level_spin.valueChanged.connect(lambda level: self.model.set_window_level(self.model.window, level))

@@ -82,11 +82,16 @@ class HistogramWidget(QWidget):
 
 
 class TransferFunctionEditor(QWidget):
-    """The opacity curve over the colour gradient. Drag a point to move it, double-click to add one,
-    right-click to remove one (the end points stay). Emits the new points while dragging and at release."""
+    """The opacity curve over the colour gradient.
+
+    Opacity: drag a point to move it, double-click to add one, right-click to remove one (the end points stay).
+    Colour: the markers under the gradient bar are the colour points; drag one along the value axis, double-click
+    it to choose its colour. Emits the new points while dragging and at release.
+    """
 
     points_dragged = Signal(object)  # list of (value, opacity)
     points_changed = Signal(object)
+    color_points_changed = Signal(object)  # list of (value, r, g, b)
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
@@ -98,10 +103,11 @@ class TransferFunctionEditor(QWidget):
         self.max_opacity = 1.0
         self.units = ""
         self._drag: int | None = None
+        self._drag_color: int | None = None
 
     def set_function(self, transfer_function, value_range: tuple[float, float], units: str) -> None:
         self.opacity_points = [list(p) for p in transfer_function.opacity_points]
-        self.color_points = list(transfer_function.color_points)
+        self.color_points = [list(p) for p in transfer_function.color_points]
         self.value_range = (float(value_range[0]), float(value_range[1]))
         self.units = units
         self.max_opacity = max(0.05, min(1.0, max(p[1] for p in self.opacity_points) * 1.25))
@@ -125,6 +131,22 @@ class TransferFunctionEditor(QWidget):
         opacity = np.clip((plot.bottom() - point.y()) / plot.height(), 0, 1) * self.max_opacity
         return float(value), float(min(opacity, 1.0))
 
+    def _color_bar(self) -> QRectF:
+        plot = self._plot()
+        return QRectF(plot.left(), plot.bottom() + 4, plot.width(), 8)
+
+    def _nearest_color(self, point: QPointF, radius: float = 6.0) -> int | None:
+        """The colour point whose marker (under the gradient bar) is at ``point``."""
+        bar = self._color_bar()
+        if not bar.top() - 2 <= point.y() <= bar.bottom() + 8:
+            return None
+        best, best_distance = None, radius
+        for index, (value, *_rgb) in enumerate(self.color_points):
+            distance = abs(self._to_screen(value, 0.0).x() - point.x())
+            if distance <= best_distance:
+                best, best_distance = index, distance
+        return best
+
     def _nearest(self, point: QPointF, radius: float = 8.0) -> int | None:
         best, best_distance = None, radius
         for index, (value, opacity) in enumerate(self.opacity_points):
@@ -140,13 +162,23 @@ class TransferFunctionEditor(QWidget):
         painter.setRenderHint(QPainter.Antialiasing)
         painter.fillRect(self.rect(), QColor(30, 30, 35))
         plot = self._plot()
-        bar = QRectF(plot.left(), plot.bottom() + 4, plot.width(), 8)
+        bar = self._color_bar()
         gradient = QLinearGradient(bar.left(), 0, bar.right(), 0)
         lo, hi = self.value_range
         for value, r, g, b in self.color_points:
             if lo <= value <= hi:
                 gradient.setColorAt((value - lo) / (hi - lo), QColor.fromRgbF(r, g, b))
         painter.fillRect(bar, QBrush(gradient))
+        painter.setPen(QPen(QColor(230, 230, 230), 1))
+        for value, r, g, b in self.color_points:
+            if lo <= value <= hi:
+                x = self._to_screen(value, 0.0).x()
+                marker = QPainterPath(QPointF(x, bar.bottom()))
+                marker.lineTo(QPointF(x - 4, bar.bottom() + 6))
+                marker.lineTo(QPointF(x + 4, bar.bottom() + 6))
+                marker.closeSubpath()
+                painter.fillPath(marker, QColor.fromRgbF(r, g, b))
+                painter.drawPath(marker)
         path = QPainterPath()
         for index, (value, opacity) in enumerate(sorted(self.opacity_points)):
             point = self._to_screen(value, opacity)
@@ -165,6 +197,10 @@ class TransferFunctionEditor(QWidget):
 
     # -- editing -----------------------------------------------------------------------------------------------
     def mousePressEvent(self, event) -> None:  # noqa: N802
+        color = self._nearest_color(event.position())
+        if color is not None and event.button() == Qt.LeftButton:
+            self._drag_color = color
+            return
         index = self._nearest(event.position())
         if event.button() == Qt.RightButton and index is not None and 0 < index < len(self.opacity_points) - 1:
             del self.opacity_points[index]
@@ -174,13 +210,37 @@ class TransferFunctionEditor(QWidget):
         self._drag = index
 
     def mouseDoubleClickEvent(self, event) -> None:  # noqa: N802
+        color = self._nearest_color(event.position())
+        if color is not None:
+            self._choose_color(color)
+            return
         value, opacity = self._from_screen(event.position())
         self.opacity_points.append([value, opacity])
         self.opacity_points.sort()
         self.update()
         self.points_changed.emit(self.points())
 
+    def _choose_color(self, index: int) -> None:
+        from qtpy.QtWidgets import QColorDialog
+
+        value, r, g, b = self.color_points[index]
+        chosen = QColorDialog.getColor(QColor.fromRgbF(r, g, b), self, f"Colour at {value:g} {self.units}")
+        if chosen.isValid():
+            self.color_points[index] = [value, chosen.redF(), chosen.greenF(), chosen.blueF()]
+            self.update()
+            self.color_points_changed.emit(self.color_values())
+
     def mouseMoveEvent(self, event) -> None:  # noqa: N802
+        if self._drag_color is not None:
+            value, _ = self._from_screen(event.position())
+            points, index = self.color_points, self._drag_color
+            if index > 0:
+                value = max(value, points[index - 1][0])
+            if index < len(points) - 1:
+                value = min(value, points[index + 1][0])
+            points[index][0] = value
+            self.update()
+            return
         if self._drag is None:
             return
         value, opacity = self._from_screen(event.position())
@@ -195,9 +255,15 @@ class TransferFunctionEditor(QWidget):
         self.points_dragged.emit(self.points())
 
     def mouseReleaseEvent(self, event) -> None:  # noqa: N802
+        if self._drag_color is not None:
+            self._drag_color = None
+            self.color_points_changed.emit(self.color_values())
         if self._drag is not None:
             self._drag = None
             self.points_changed.emit(self.points())
 
     def points(self) -> list[tuple[float, float]]:
         return [tuple(p) for p in self.opacity_points]
+
+    def color_values(self) -> list[tuple[float, float, float, float]]:
+        return [tuple(p) for p in self.color_points]

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 from qtpy.QtCore import QTimer
 from qtpy.QtWidgets import QApplication, QFileDialog, QMessageBox
 
@@ -243,3 +244,24 @@ def test_dicom_folder_series_choice(qtbot, window, tmp_path, monkeypatch):
     assert offered == ["first", "second"]
     assert window.model.volume.dimensions == second.dimensions
     assert window.model.volume.metadata["series_uid"] == uid
+
+
+def test_transfer_function_editor_drag_changes_the_volume_views(qtbot, window, small_ct_file):
+    from qtpy.QtCore import QPoint, Qt
+    from qtpy.QtTest import QTest
+
+    window.model.set_layout("1x1")
+    window.model.set_view_mode(0, "vtk-cpu")
+    open_and_wait(qtbot, window, small_ct_file)
+    before = window.views[0].capture()
+    curve = window.controls.curve
+    index = 2  # the 700 HU point of ct-bone: drag it down to opacity 0
+    start = curve._to_screen(*curve.opacity_points[index])
+    end = QPoint(int(start.x()), int(curve._plot().bottom()))
+    QTest.mousePress(curve, Qt.LeftButton, Qt.NoModifier, start.toPoint())
+    QTest.mouseMove(curve, end)
+    QTest.mouseRelease(curve, Qt.LeftButton, Qt.NoModifier, end)
+    assert window.model.transfer_function.opacity_points[index][1] == pytest.approx(0.0, abs=0.01)
+    wait_ready(qtbot, window)
+    after = window.views[0].capture()
+    assert after.mean() < before.mean()  # less opaque bone, darker picture
