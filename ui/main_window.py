@@ -23,6 +23,7 @@ from qtpy.QtWidgets import (
     QWidget,
 )
 
+from algorithms.camera import Camera
 from app.io import READABLE_SUFFIXES, FileExistsRefusal, list_series
 from app.meshing import export_mesh, sidecar_path
 from app.modes import get_mode
@@ -176,6 +177,8 @@ class MainWindow(QMainWindow):
         self.link_action.setCheckable(True)
         self.link_action.setChecked(True)
         self.model.cameras_linked_changed.connect(self.link_action.setChecked)
+        self.parallel_action = self._action(view_menu, "&Parallel projection", self.set_parallel_projection, "P")
+        self.parallel_action.setCheckable(True)
         self._action(view_menu, "&Reset camera", lambda: self.reset_camera("anterior"), "R")
         for name in ("anterior", "posterior", "left", "right", "superior", "inferior"):
             self._action(view_menu, f"{name.capitalize()} view", lambda _=False, n=name: self.reset_camera(n))
@@ -342,10 +345,24 @@ class MainWindow(QMainWindow):
             return
         view = self.views[self.active_view]
         width, height = view.plotter.ren_win.GetSize()
-        camera = default_camera(volume, view=side, aspect=max(width, 1) / max(height, 1))
+        camera = default_camera(volume, view=side, aspect=max(width, 1) / max(height, 1),
+                                parallel=self.parallel_action.isChecked())
         targets = self.views if all_views else self.camera_link.views_following(view)
         for target in targets:
             camera.apply_to_vtk(target.renderer.GetActiveCamera())
+
+    def set_parallel_projection(self, parallel: bool) -> None:
+        """Switch the cameras the active view follows between parallel and perspective projection, keeping what
+        is shown at the focal point the same size."""
+        view = self.views[self.active_view]
+        for target in self.camera_link.views_following(view):
+            camera = target.renderer.GetActiveCamera()
+            if bool(camera.GetParallelProjection()) == bool(parallel):
+                continue
+            if parallel:
+                camera.SetParallelScale(Camera.from_vtk(camera).as_parallel().parallel_scale)
+            camera.SetParallelProjection(int(bool(parallel)))
+        self.parallel_action.setChecked(bool(parallel))
 
     def _camera_moved(self, source) -> None:
         targets = self.views if source is None else self.camera_link.views_following(source)

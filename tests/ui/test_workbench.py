@@ -265,3 +265,20 @@ def test_transfer_function_editor_drag_changes_the_volume_views(qtbot, window, s
     wait_ready(qtbot, window)
     after = window.views[0].capture()
     assert after.mean() < before.mean()  # less opaque bone, darker picture
+
+
+def test_parallel_projection_toggle(qtbot, window, small_ct_file):
+    window.model.set_layout("1x2")
+    window.model.set_view_mode(0, "vtk-cpu")
+    window.model.set_view_mode(1, "raymarch")
+    open_and_wait(qtbot, window, small_ct_file)
+    camera = window.views[0].renderer.GetActiveCamera()
+    distance, angle = camera.GetDistance(), camera.GetViewAngle()
+    window.parallel_action.trigger()
+    assert camera.GetParallelProjection() and window.views[1].renderer.GetActiveCamera().GetParallelProjection()
+    assert camera.GetParallelScale() == pytest.approx(distance * np.tan(np.radians(angle / 2)))
+    wait_ready(qtbot, window)
+    window.reset_camera("left")
+    assert camera.GetParallelProjection()  # a standard view keeps the projection chosen
+    window.parallel_action.trigger()
+    assert not camera.GetParallelProjection()
