@@ -10,6 +10,7 @@ the window is saved as soon as every view has rendered at full quality; ``--exit
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Sequence
 
@@ -50,6 +51,11 @@ def main(argv: Sequence[str] | None = None) -> int:
               file=sys.stderr)
         return 1
 
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+                                                 or os.environ.get("QT_QPA_PLATFORM")):
+        print("voxelscope: error: no display to open the window on (DISPLAY is not set). Run it on a desktop, "
+              "through 'ssh -X', or under a virtual X server: xvfb-run voxelscope gui ...", file=sys.stderr)
+        return 1
     from qtpy.QtCore import QTimer
 
     from app.samples import resolve_path

@@ -143,6 +143,10 @@ class RenderView(QFrame):
 
         if event.type() == QEvent.MouseButtonPress:
             self.activated.emit(self.index)
+        elif event.type() == QEvent.Resize and self.volume is not None and self.mode and self._shows_image():
+            # Our images are rendered at the view's pixel size: a resized view gets a new frame once it settles.
+            self._mark_not_ready()
+            self._idle.start()
         return False
 
     def set_volume(self, volume: Volume, image, mode: str, iso: float, transfer_function) -> None:

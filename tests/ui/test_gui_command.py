@@ -83,3 +83,10 @@ def test_gui_reports_a_bad_path_and_exits(tmp_path):
     )
     assert process.returncode == 1
     assert "missing.nii: no such file or folder" in process.stderr and "Traceback" not in process.stderr
+
+
+def test_gui_without_a_display_says_so(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM")}
+    process = subprocess.run([sys.executable, "-m", "app.cli", "gui", "sample"], capture_output=True, text=True,
+                             timeout=120, env=env)
+    assert process.returncode == 1 and "no display" in process.stderr and "Traceback" not in process.stderr
