@@ -114,6 +114,18 @@ def progress_for(algorithm: vtkAlgorithm) -> ProgressCallback:
     return _progress
 
 
+def vtk_matrix(matrix: np.ndarray):
+    """A ``vtkMatrix4x4`` holding the 4x4 ``matrix`` (row-major, as VTK stores it)."""
+    from vtkmodules.vtkCommonMath import vtkMatrix4x4
+
+    matrix = np.asarray(matrix, dtype=np.float64)
+    if matrix.shape != (4, 4) or not np.all(np.isfinite(matrix)):
+        raise ValueError(f"expected a finite 4x4 matrix, got shape {matrix.shape}")
+    result = vtkMatrix4x4()
+    result.DeepCopy(matrix.ravel().tolist())
+    return result
+
+
 def image_from_array(
     array: np.ndarray,
     spacing=(1.0, 1.0, 1.0),

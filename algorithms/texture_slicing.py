@@ -96,7 +96,7 @@ from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
 
 from ._progress import ProgressCallback, report
 from ._sampling import sample_volume, validated_spacing, validated_volume
-from ._vtk import polydata_from_arrays
+from ._vtk import polydata_from_arrays, vtk_matrix
 from .camera import Camera
 from .render_result import RenderResult
 from .transfer import TransferTable
@@ -966,7 +966,6 @@ class SliceStackProp:
     """
 
     def __init__(self, slicer: SlicingRenderer, *, user_matrix=None) -> None:
-        from vtkmodules.vtkCommonMath import vtkMatrix4x4
         from vtkmodules.vtkRenderingCore import vtkAssembly
         import vtkmodules.vtkRenderingOpenGL2  # noqa: F401 - the OpenGL mappers and textures must be registered
 
@@ -976,8 +975,7 @@ class SliceStackProp:
         if matrix.shape != (4, 4) or not np.all(np.isfinite(matrix)):
             raise ValueError(f"user_matrix must be a finite 4x4 matrix, got shape {matrix.shape}")
         self.slicer = slicer
-        placement = vtkMatrix4x4()
-        placement.DeepCopy(matrix.ravel().tolist())  # row-major, as vtkMatrix4x4 stores it
+        placement = vtk_matrix(matrix)
         self.prop = vtkAssembly()
         self.prop.SetUserMatrix(placement)
         self._actors: list = []

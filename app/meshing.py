@@ -59,9 +59,7 @@ def to_world(polydata, volume: Volume, coordinates: str = "LPS"):
     from vtkmodules.vtkCommonTransforms import vtkTransform
     from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
 
-    from algorithms._vtk import run_algorithm
-
-    from .rendering import _matrix_to_vtk
+    from algorithms._vtk import run_algorithm, vtk_matrix
 
     coordinates = coordinates.upper()
     if coordinates not in COORDINATE_SYSTEMS:
@@ -70,7 +68,7 @@ def to_world(polydata, volume: Volume, coordinates: str = "LPS"):
     if coordinates == "RAS":
         matrix = np.diag([-1.0, -1.0, 1.0, 1.0]) @ matrix
     transform = vtkTransform()
-    transform.SetMatrix(_matrix_to_vtk(matrix))
+    transform.SetMatrix(vtk_matrix(matrix))
     moved = vtkTransformFilter()
     moved.SetTransform(transform)
     moved.SetInputData(polydata)

@@ -17,6 +17,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from algorithms._vtk import vtk_matrix
 from algorithms.camera import Camera
 
 from .volume import Volume
@@ -33,16 +34,6 @@ STANDARD_VIEWS: dict[str, tuple[tuple[float, float, float], tuple[float, float, 
     "superior": ((0.0, 0.0, -1.0), (0.0, -1.0, 0.0)),
     "inferior": ((0.0, 0.0, 1.0), (0.0, -1.0, 0.0)),
 }
-
-
-def _matrix_to_vtk(matrix: np.ndarray):
-    from vtkmodules.vtkCommonMath import vtkMatrix4x4
-
-    vtk_matrix = vtkMatrix4x4()
-    for r in range(4):
-        for c in range(4):
-            vtk_matrix.SetElement(r, c, float(matrix[r, c]))
-    return vtk_matrix
 
 
 def bounding_radius(volume: Volume) -> float:
@@ -128,7 +119,7 @@ def volume_prop(volume: Volume, transfer_function, *, mapper: str = "gpu", sampl
     prop = vtkVolume()
     prop.SetMapper(vtk_mapper)
     prop.SetProperty(transfer_function.to_vtk_property(shading=shading))
-    prop.SetUserMatrix(_matrix_to_vtk(volume.local_to_world))
+    prop.SetUserMatrix(vtk_matrix(volume.local_to_world))
     return prop
 
 
@@ -160,7 +151,7 @@ def surface_actor(polydata, volume: Volume, *, color=(0.9, 0.85, 0.75), flat: bo
     prop.SetSpecularPower(20)
     if flat:
         prop.SetInterpolationToFlat()
-    actor.SetUserMatrix(_matrix_to_vtk(volume.local_to_world))
+    actor.SetUserMatrix(vtk_matrix(volume.local_to_world))
     return actor
 
 

@@ -116,6 +116,14 @@ def write_json(path: Path, data: Any) -> Path:
     return path
 
 
+def save_figure(figure, path: Path, *, dpi: int = 120) -> Path:
+    """Lay out, write and close a matplotlib figure; returns ``path``."""
+    figure.tight_layout()
+    figure.savefig(path, dpi=dpi)
+    pyplot().close(figure)
+    return Path(path)
+
+
 def pyplot():
     """matplotlib's pyplot with the non-interactive Agg back end (benchmarks run headless)."""
     import matplotlib

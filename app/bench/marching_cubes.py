@@ -41,7 +41,7 @@ import numpy as np
 from algorithms._progress import ProgressCallback, report
 from algorithms._vtk import image_from_array, run_algorithm
 
-from .common import machine_info, pyplot, time_call, write_csv, write_json
+from .common import machine_info, pyplot, save_figure, time_call, write_csv, write_json
 
 COLIN27 = Path("/work/shared/data/colin27_t1_ch2.nii.gz")
 SYNTHETIC_SIZES = (64, 128, 192, 256, 384, 512)
@@ -274,7 +274,4 @@ def _plot(rows: list[dict[str, Any]], path: Path) -> Path:
     bars.set_ylabel("extraction time, median (ms)")
     bars.set_title("Real-sized volumes")
     bars.legend(fontsize=8)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path)

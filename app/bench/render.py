@@ -49,7 +49,7 @@ from ..rendering import FrameTimes, OffscreenScene, default_camera, default_samp
 from ..transfer import transfer_function_for
 from ..vtk_setup import configure_vtk
 from . import slicing
-from .common import machine_info, pyplot, write_csv, write_json
+from .common import machine_info, pyplot, save_figure, write_csv, write_json
 
 PRESET = "ct-bone"
 SIZE, QUICK_SIZE = 512, 256
@@ -160,10 +160,7 @@ def _plot_frame_times(path: Path, runners: list[_Runner], frames: int) -> Path:
     axis.set_title("Frame time per frame, CT head phantom, ct-bone")
     axis.grid(True, which="both", alpha=0.3)
     axis.legend(fontsize=8, ncol=2)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path)
 
 
 def _plot_medians(path: Path, summary: list[dict[str, Any]], ablation: list[dict[str, Any]]) -> Path:
@@ -183,10 +180,7 @@ def _plot_medians(path: Path, summary: list[dict[str, Any]], ablation: list[dict
     for axis in (left, right):
         axis.set_yscale("log")
         axis.grid(True, axis="y", which="both", alpha=0.3)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path)
 
 
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:

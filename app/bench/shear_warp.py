@@ -60,7 +60,7 @@ from ..rendering import (
 from ..transfer import transfer_function_for
 from ..volume import Volume
 from ..vtk_setup import configure_vtk
-from .common import machine_info, pyplot, write_csv, write_json
+from .common import machine_info, pyplot, save_figure, write_csv, write_json
 
 SIZE = 512
 #: Test 1 sizes as (x, y, z) voxels, as the source lists them.
@@ -209,10 +209,7 @@ def _plot_random(path: Path, sizes: list[dict[str, Any]], transparency: list[dic
         axis.grid(True, alpha=0.3)
         axis.legend(fontsize=8)
         axis.set_ylim(bottom=0)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path)
 
 
 def _plot_ct(path: Path, summary: list[dict[str, Any]], runs: dict[str, dict[str, Any]]) -> Path:
@@ -233,10 +230,7 @@ def _plot_ct(path: Path, summary: list[dict[str, Any]], runs: dict[str, dict[str
     right.set_ylabel("frame time (s)")
     right.legend(fontsize=6)
     right.grid(True, which="both", alpha=0.3)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path)
 
 
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:

@@ -39,7 +39,7 @@ from algorithms.texture_slicing import SliceStackProp, SlicingRenderer
 from ..datasets import ct_head_phantom
 from ..rendering import OffscreenScene, default_camera, default_sample_distance, render_vtk_volume, volume_prop
 from ..transfer import transfer_function_for
-from .common import Timing, machine_info, pyplot, time_call, write_csv, write_json
+from .common import Timing, machine_info, pyplot, save_figure, time_call, write_csv, write_json
 
 PRESET = "ct-bone"
 #: A preset of low opacity per slice, for the 8-bit compositing error (image quality only).
@@ -183,10 +183,7 @@ def _plot_times(path: Path, rows, vtk_seconds) -> Path:
     axis.set_title("Texture slicing: frame time by slice count")
     axis.legend(fontsize=8)
     axis.grid(True, which="both", alpha=0.3)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path)
 
 
 def _plot_quality(path: Path, rows, default_count: int) -> Path:
@@ -207,10 +204,7 @@ def _plot_quality(path: Path, rows, default_count: int) -> Path:
         axis.legend(fontsize=8)
         axis.grid(True, alpha=0.3)
     figure.suptitle("Texture slicing against vtk-gpu by slice count")
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path)
 
 
 def _plot_switch(path: Path, rows, switch_azimuth: float) -> Path:
@@ -226,10 +220,7 @@ def _plot_switch(path: Path, rows, switch_azimuth: float) -> Path:
     axis.set_title("Axis-aligned stack switch: change between consecutive frames")
     axis.legend(fontsize=8)
     axis.grid(True, alpha=0.3)
-    figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path)
 
 
 def _image_grid(path: Path, columns: list[tuple[str, np.ndarray, np.ndarray | None]], title: str) -> Path:
@@ -244,10 +235,7 @@ def _image_grid(path: Path, columns: list[tuple[str, np.ndarray, np.ndarray | No
         for row in (0, 1):
             axes[row, index].axis("off")
     figure.suptitle(title, fontsize=10)
-    figure.tight_layout()
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
-    return path
+    return save_figure(figure, path, dpi=110)
 
 
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:

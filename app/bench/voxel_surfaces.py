@@ -66,7 +66,7 @@ from .. import datasets
 from ..io import load_volume
 from ..rendering import OffscreenScene
 from ..vtk_setup import configure_vtk, set_smp_backend, smp_backend
-from .common import Timing, machine_info, pyplot, time_call, write_csv, write_json
+from .common import Timing, machine_info, pyplot, save_figure, time_call, write_csv, write_json
 
 #: Colin 27 (the source's BrainWeb grid, 181 x 217 x 181, 1 mm, uint8): the project copy first, then shared data.
 COLIN_PATHS = (
@@ -319,10 +319,7 @@ def _plot_family(path: Path, family: str, memory, render, extraction, quick: boo
     axes[1].set_title("render time per frame (source 9.2)")
     axes[2].set_title("extraction time")
     fig.suptitle(f"{family}: voxel surfaces" + (" (quick run)" if quick else ""))
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def _bars(ax, names: list[str], series: dict[str, list[float]], ylabel: str, log: bool) -> None:
@@ -355,10 +352,7 @@ def _plot_real(path: Path, memory, extraction) -> Path:
     timed = [row for row in extraction if row["smp_backend"] in ("", "STDThread")]
     _bars(axes[1], names, series(timed, "method", "median_s"), "extraction seconds (VTK: STDThread)", True)
     fig.suptitle("Colin 27 (181 x 217 x 181, 1 mm) and its label volume")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 # ----------------------------------------------------------------------------------------------------------------
