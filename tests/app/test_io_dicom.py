@@ -257,3 +257,33 @@ def test_scan_reports_non_image_objects(tmp_path):
     scan = scan_folder(folder)
     assert scan.series == []
     assert scan.skipped and "no image in this object" in scan.skipped[0][1]
+
+
+def test_images_without_patient_geometry_are_refused(tmp_path):
+    volume = small_ct(shape=(3, 16, 16))
+    for path in write_dicom_series(volume, tmp_path / "sc", rescale_intercept=-1024):
+        ds = pydicom.dcmread(path)
+        del ds.ImagePositionPatient
+        ds.save_as(path)
+    with pytest.raises(DicomSeriesError, match="lacks ImagePositionPatient.*secondary capture"):
+        load_volume(tmp_path / "sc")
+
+
+def test_slices_sharing_a_position_without_echoes_are_refused(tmp_path):
+    volume = small_ct(shape=(4, 16, 16))
+    uid = "1.2.826.0.1.3680043.8.498.31337"
+    write_dicom_series(volume, tmp_path / "dup" / "a", series_uid=uid, rescale_intercept=-1024)
+    write_dicom_series(volume, tmp_path / "dup" / "b", series_uid=uid, rescale_intercept=-1024,
+                       file_names=[f"copy_{k}.dcm" for k in range(4)])
+    with pytest.raises(DicomSeriesError, match="several slices share the same position"):
+        load_volume(tmp_path / "dup")
+
+
+def test_duplicate_files_are_named_and_skipped(tmp_path):
+    volume = small_ct(shape=(4, 16, 16))
+    paths = write_dicom_series(volume, tmp_path / "copy", rescale_intercept=-1024)
+    shutil.copy(paths[1], tmp_path / "copy" / "again.dcm")
+    loaded = load_volume(tmp_path / "copy")
+    assert any("again.dcm: skipped, duplicate of" in w or "slice_0001.dcm: skipped, duplicate of" in w
+               for w in loaded.metadata["warnings"])
+    np.testing.assert_array_equal(loaded.array, volume.array)
