@@ -418,9 +418,12 @@ class EdgeReport:
     nonmanifold_edges : int
         Edges used by three or more triangles.
     inconsistent_edges : int
-        Edges shared by two triangles that traverse it in the same direction (winding flips across it).
+        Edges shared by an even number of triangles that do not traverse it as often in one direction as in the
+        other (the winding flips across it).
     nonmanifold_vertices : int
         Vertices whose triangles form more than one fan (surfaces touching at a point).
+    odd_edges : int
+        Edges used by an odd number of triangles: the rim of a hole (one triangle) or a fin (three, five, ...).
     """
 
     edges: int
@@ -428,11 +431,17 @@ class EdgeReport:
     nonmanifold_edges: int
     inconsistent_edges: int
     nonmanifold_vertices: int
+    odd_edges: int
 
     @property
     def watertight(self) -> bool:
-        """Every edge is shared by exactly two triangles."""
-        return self.edges > 0 and self.boundary_edges == 0 and self.nonmanifold_edges == 0
+        """Closed: every edge is shared by an even number of triangles.
+
+        Two on a manifold surface; four where two solids touch along an edge, as voxel surfaces do where voxels meet
+        only diagonally. Such a surface is closed (it encloses a volume) but not manifold, which :attr:`manifold`
+        reports.
+        """
+        return self.edges > 0 and self.odd_edges == 0
 
     @property
     def manifold(self) -> bool:
@@ -495,21 +504,23 @@ def edge_manifoldness(surface, triangles=None) -> EdgeReport:
     """Count boundary, non-manifold and inconsistently oriented edges and pinched vertices."""
     points, tris = surface_arrays(surface, triangles)
     if len(tris) == 0:
-        return EdgeReport(0, 0, 0, 0, 0)
+        return EdgeReport(0, 0, 0, 0, 0, 0)
     edges = _edges(points.shape[0], tris)
     direction = np.where(edges.forward, 1, -1)
     direction_sum = np.bincount(edges.inverse, weights=direction, minlength=edges.unique_keys.size)
+    even = edges.counts % 2 == 0
     return EdgeReport(
         edges=int(edges.unique_keys.size),
         boundary_edges=int(np.count_nonzero(edges.counts == 1)),
         nonmanifold_edges=int(np.count_nonzero(edges.counts > 2)),
-        inconsistent_edges=int(np.count_nonzero((edges.counts == 2) & (direction_sum != 0))),
+        inconsistent_edges=int(np.count_nonzero(even & (direction_sum != 0))),
         nonmanifold_vertices=_nonmanifold_vertices(tris, edges),
+        odd_edges=int(np.count_nonzero(~even)),
     )
 
 
 def is_watertight(surface, triangles=None) -> bool:
-    """Closed: every edge is shared by exactly two triangles."""
+    """Closed: every edge is shared by an even number of triangles (see :attr:`EdgeReport.watertight`)."""
     return edge_manifoldness(surface, triangles).watertight
 
 
@@ -546,7 +557,7 @@ class OrientationReport:
     volumes : ndarray (c,)
         Signed enclosed volume of each piece (mm^3).
     closed : ndarray (c,) of bool
-        Whether each piece is closed (all its edges shared by two triangles).
+        Whether each piece is closed (each of its edges shared by an even number of triangles).
     depth : ndarray (c,) of int
         For closed pieces, how many other closed pieces enclose it (0 for open pieces).
     outward : bool
@@ -567,7 +578,7 @@ class OrientationReport:
 def orientation_outward(surface, triangles=None) -> OrientationReport:
     """Check that the triangles of every closed piece face away from the solid (see :class:`OrientationReport`).
 
-    Nesting depth comes from ``vtkSelectEnclosedPoints``: one vertex of each closed piece is tested against every
+    Nesting depth comes from :func:`ray_crossings`: a point of each closed piece is tested against every
     other closed piece whose bounding box contains it.
     """
     points, tris = surface_arrays(surface, triangles)
@@ -576,7 +587,7 @@ def orientation_outward(surface, triangles=None) -> OrientationReport:
     edges = _edges(points.shape[0], tris) if len(tris) else None
     closed = np.ones(count, dtype=bool)
     if edges is not None:
-        open_edge = edges.counts[edges.inverse] != 2
+        open_edge = edges.counts[edges.inverse] % 2 == 1
         closed[np.unique(np.repeat(labels, 3)[open_edge])] = False
     depth = _nesting_depth(points, tris, labels, closed)
     expected_sign = np.where(depth % 2 == 0, 1.0, -1.0)
@@ -590,25 +601,87 @@ def _nesting_depth(points, tris, labels, closed) -> np.ndarray:
     closed_ids = np.flatnonzero(closed)
     if closed_ids.size < 2:
         return depth
-    from vtkmodules.vtkFiltersModeling import vtkSelectEnclosedPoints
-
     order = np.argsort(labels, kind="stable")
     starts = np.searchsorted(labels[order], np.arange(count + 1))
     pieces = {c: tris[order[starts[c]:starts[c + 1]]] for c in closed_ids}
-    probe = {c: points[pieces[c][0, 0]] for c in closed_ids}
-    boxes = {}
-    for c in closed_ids:
-        used = points[np.unique(pieces[c])]
-        boxes[c] = (used.min(axis=0), used.max(axis=0))
+    # A point inside one of the piece's triangles: pieces do not touch, so it is inside exactly the pieces that
+    # enclose the whole piece.
+    probes = np.array([points[pieces[c][0]].mean(axis=0) for c in closed_ids])
     for outer in closed_ids:
-        low, high = boxes[outer]
-        inner = [c for c in closed_ids if c != outer and np.all(probe[c] > low) and np.all(probe[c] < high)]
-        if not inner:
+        used = points[np.unique(pieces[outer])]
+        low, high = used.min(axis=0), used.max(axis=0)
+        inside_box = np.all((probes > low) & (probes < high), axis=1) & (closed_ids != outer)
+        if not inside_box.any():
             continue
-        enclosing = vtkSelectEnclosedPoints()
-        enclosing.SetSurfaceData(polydata_from_arrays(points, pieces[outer]))
-        enclosing.SetInputData(polydata_from_arrays(np.array([probe[c] for c in inner]), np.empty((0, 3))))
-        result = run_algorithm(enclosing)
-        selected = numpy_support.vtk_to_numpy(result.GetPointData().GetArray("SelectedPoints"))
-        depth[np.asarray(inner)[selected.astype(bool)]] += 1
+        crossings = ray_crossings(points, pieces[outer], probes[inside_box])
+        depth[closed_ids[inside_box][crossings % 2 == 1]] += 1
     return depth
+
+
+def ray_crossings(points: np.ndarray, triangles: np.ndarray, origins: np.ndarray) -> np.ndarray:
+    """How many triangles the ray from each origin towards +x passes through.
+
+    For a closed surface an odd count means the origin is enclosed. Rays that meet an edge or a vertex exactly,
+    which happens all the time on voxel and grid-aligned surfaces, are decided by simulation of simplicity: the
+    origin is moved by ``(0, e, e^2)`` for an infinitesimal ``e``, and each edge's side test is evaluated once,
+    from its lower to its higher vertex index, for every triangle that shares it. So a ray through an edge counts
+    exactly one of the triangles on each side, and the count is exact for any closed surface, manifold or not.
+
+    Parameters
+    ----------
+    points : ndarray (n, 3)
+    triangles : ndarray (m, 3) of int
+        Vertex indices; triangles that share an edge must share its two indices.
+    origins : ndarray (k, 3)
+        Ray origins; none may lie on the surface.
+
+    Returns
+    -------
+    ndarray (k,) of int
+    """
+    points = np.asarray(points, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    origins = np.atleast_2d(np.asarray(origins, dtype=np.float64))
+    result = np.zeros(origins.shape[0], dtype=np.int64)
+    if len(triangles) == 0 or len(origins) == 0:
+        return result
+    corners = points[triangles]  # (m, 3 corners, xyz)
+    y_low, y_high = corners[:, :, 1].min(axis=1), corners[:, :, 1].max(axis=1)
+    z_low, z_high = corners[:, :, 2].min(axis=1), corners[:, :, 2].max(axis=1)
+    by_z = np.argsort(z_low, kind="stable")
+    z_low_sorted = z_low[by_z]
+    reach = float((z_high - z_low).max())
+    edge_ends = ((0, 1), (1, 2), (2, 0))
+    for k, origin in enumerate(origins):
+        _, y, z = origin
+        window = by_z[np.searchsorted(z_low_sorted, z - reach, "left"):np.searchsorted(z_low_sorted, z, "right")]
+        near = window[(z_high[window] >= z) & (y_low[window] <= y) & (y_high[window] >= y)]
+        if near.size == 0:
+            continue
+        tri = triangles[near]
+        sides = []
+        for i, j in edge_ends:
+            forward = tri[:, i] < tri[:, j]
+            u = np.where(forward[:, None], corners[near, i], corners[near, j])
+            v = np.where(forward[:, None], corners[near, j], corners[near, i])
+            side = _perturbed_side(u, v, y, z)
+            sides.append(np.where(forward, side, -side))
+        inside = (sides[0] == sides[1]) & (sides[1] == sides[2])
+        if not inside.any():
+            continue
+        a, b, c = (corners[near[inside], i] for i in range(3))
+        normal = np.cross(b - a, c - a)
+        usable = normal[:, 0] != 0.0
+        hit_x = a[usable, 0] - (normal[usable, 1] * (y - a[usable, 1])
+                                + normal[usable, 2] * (z - a[usable, 2])) / normal[usable, 0]
+        result[k] = int(np.count_nonzero(hit_x > origin[0]))
+    return result
+
+
+def _perturbed_side(u: np.ndarray, v: np.ndarray, y: float, z: float) -> np.ndarray:
+    """Side (+1 or -1) of the point (y + e, z + e^2) relative to the (y, z) projection of edges u -> v."""
+    dy = v[:, 1] - u[:, 1]
+    dz = v[:, 2] - u[:, 2]
+    side = np.sign(dy * (z - u[:, 2]) - dz * (y - u[:, 1]))
+    side = np.where(side != 0, side, np.sign(-dz))  # the e term
+    return np.where(side != 0, side, np.sign(dy))  # the e^2 term; zero only for an edge seen end-on

@@ -227,7 +227,7 @@ class ValidityReport:
     Attributes
     ----------
     watertight : bool
-        Closed: every edge is shared by two triangles.
+        Closed: every edge is shared by an even number of triangles (two, or four where voxels meet along an edge).
     manifold : bool
         No edge in three or more triangles and no pinched vertex.
     outward_normals : bool

@@ -226,7 +226,7 @@ def test_holes_flips_fins_and_pinches_are_counted():
     assert not report.manifold
     assert sc.connected_components(merged_points, merged) == 1
     assert sc.connected_components(*touching) == 2
-    assert sc.edge_manifoldness(points, np.empty((0, 3), dtype=np.int64)) == sc.EdgeReport(0, 0, 0, 0, 0)
+    assert sc.edge_manifoldness(points, np.empty((0, 3), dtype=np.int64)) == sc.EdgeReport(0, 0, 0, 0, 0, 0)
 
 
 def test_orientation_with_cavities_and_islands():
@@ -247,3 +247,54 @@ def test_orientation_with_cavities_and_islands():
     open_box = (outer[0], outer[1][2:])
     report = sc.orientation_outward(*open_box)
     assert not report.closed[0] and report.outward  # nothing closed to judge
+
+
+def merged_voxel_surface(mask: np.ndarray):
+    """The visible faces of ``mask`` with coincident corners merged (corners lie on an exact lattice)."""
+    from algorithms.voxel_faces import voxel_faces
+
+    faces = voxel_faces(mask)
+    points, inverse = np.unique(faces.points.astype(np.float64), axis=0, return_inverse=True)
+    return points, inverse.reshape(-1)[faces.triangles]
+
+
+def test_ray_crossings_through_edges_and_vertices_are_exact():
+    # Rays along +x at (y, z) on voxel corners run exactly through face edges and corners in every slice; the
+    # crossing parity must still say inside or outside for every origin off the surface.
+    rng = np.random.default_rng(7)
+    mask = rng.random((14, 15, 16)) < 0.45  # (z, y, x), many voxels meeting only along edges or at corners
+    points, triangles = merged_voxel_surface(mask)
+    padded = np.pad(mask, 1)
+    origins, expected = [], []
+    for k in range(mask.shape[0] + 1):
+        for j in range(mask.shape[1] + 1):
+            for i in range(mask.shape[2]):
+                around = padded[k:k + 2, j:j + 2, i + 1]  # the four voxels around the x-edge through the origin
+                if around.all() or not around.any():  # the origin is off the surface
+                    origins.append((i + 0.25, j - 0.5, k - 0.5))
+                    expected.append(bool(around.all()))
+    crossings = sc.ray_crossings(points, triangles, np.array(origins))
+    assert len(origins) > 300 and any(expected) and not all(expected)
+    assert np.array_equal(crossings % 2 == 1, expected)
+
+
+def test_ray_crossings_of_a_cube():
+    points, triangles = cube()
+    origins = [(0.5, 0.5, 0.5), (-1.0, 0.5, 0.5), (2.0, 0.5, 0.5), (0.3, 0.0 + 1e-9, 0.7), (-1.0, 1.0, 1.0)]
+    assert sc.ray_crossings(points, triangles, origins).tolist() == [1, 2, 0, 1, 0]
+    assert sc.ray_crossings(points, np.empty((0, 3), dtype=np.int64), origins).tolist() == [0] * 5
+
+
+def test_a_closed_voxel_surface_with_diagonal_contacts_is_watertight_and_outward():
+    rng = np.random.default_rng(3)
+    mask = rng.random((12, 12, 12)) < 0.5
+    mask[4:8, 4:8, 4:8] = False  # a cavity
+    mask[5:7, 5:7, 5:7] = True  # with an island in it
+    points, triangles = merged_voxel_surface(mask)
+    edges = sc.edge_manifoldness(points, triangles)
+    assert edges.nonmanifold_edges > 0 and edges.odd_edges == 0
+    assert edges.watertight and not edges.manifold and edges.consistently_oriented
+    report = sc.orientation_outward(points, triangles)
+    assert report.closed.all() and report.outward
+    assert report.volumes.sum() == pytest.approx(mask.sum())
+    assert not sc.orientation_outward(points, triangles[:, ::-1]).outward
