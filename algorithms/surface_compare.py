@@ -286,7 +286,9 @@ def _signed_volumes(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
     """Signed volume of the tetrahedron (centre, p0, p1, p2) of each triangle, centre = bounding-box centre."""
     if len(tris) == 0:
         return np.zeros(0)
-    used = points[np.unique(tris)]
+    is_used = np.zeros(points.shape[0], dtype=bool)
+    is_used[tris.reshape(-1)] = True
+    used = points[is_used]
     centre = 0.5 * (used.min(axis=0) + used.max(axis=0))  # only moves the origin: better rounding, same total
     p0, p1, p2 = _corners(points - centre, tris)
     return np.einsum("ij,ij->i", p0, np.cross(p1, p2)) / 6.0
@@ -603,17 +605,18 @@ def _nesting_depth(points, tris, labels, closed) -> np.ndarray:
         return depth
     order = np.argsort(labels, kind="stable")
     starts = np.searchsorted(labels[order], np.arange(count + 1))
-    pieces = {c: tris[order[starts[c]:starts[c + 1]]] for c in closed_ids}
+    corners = points[tris[order]]  # (m, 3, 3), grouped by piece
+    piece_low = np.minimum.reduceat(corners.min(axis=1), starts[:-1])
+    piece_high = np.maximum.reduceat(corners.max(axis=1), starts[:-1])
     # A point inside one of the piece's triangles: pieces do not touch, so it is inside exactly the pieces that
     # enclose the whole piece.
-    probes = np.array([points[pieces[c][0]].mean(axis=0) for c in closed_ids])
+    probes = corners[starts[closed_ids]].mean(axis=1)
     for outer in closed_ids:
-        used = points[np.unique(pieces[outer])]
-        low, high = used.min(axis=0), used.max(axis=0)
-        inside_box = np.all((probes > low) & (probes < high), axis=1) & (closed_ids != outer)
+        inside_box = np.all((probes > piece_low[outer]) & (probes < piece_high[outer]), axis=1)
+        inside_box &= closed_ids != outer
         if not inside_box.any():
             continue
-        crossings = ray_crossings(points, pieces[outer], probes[inside_box])
+        crossings = ray_crossings(points, tris[order[starts[outer]:starts[outer + 1]]], probes[inside_box])
         depth[closed_ids[inside_box][crossings % 2 == 1]] += 1
     return depth
 
@@ -648,14 +651,27 @@ def ray_crossings(points: np.ndarray, triangles: np.ndarray, origins: np.ndarray
     corners = points[triangles]  # (m, 3 corners, xyz)
     y_low, y_high = corners[:, :, 1].min(axis=1), corners[:, :, 1].max(axis=1)
     z_low, z_high = corners[:, :, 2].min(axis=1), corners[:, :, 2].max(axis=1)
-    by_z = np.argsort(z_low, kind="stable")
-    z_low_sorted = z_low[by_z]
-    reach = float((z_high - z_low).max())
+    # Bucket the triangles on a (y, z) grid with cells as large as the largest triangle: a ray can only meet the
+    # triangles whose lower corner lies in its own cell or the cells just below it in y and z.
+    cell_y = max(float((y_high - y_low).max()), 1e-12)
+    cell_z = max(float((z_high - z_low).max()), 1e-12)
+    y0, z0 = float(y_low.min()), float(z_low.min())
+    rows = int((y_low.max() - y0) // cell_y) + 2
+    bucket = ((z_low - z0) // cell_z).astype(np.int64) * rows + ((y_low - y0) // cell_y).astype(np.int64)
+    by_bucket = np.argsort(bucket, kind="stable")
+    bucket_sorted = bucket[by_bucket]
     edge_ends = ((0, 1), (1, 2), (2, 0))
     for k, origin in enumerate(origins):
         _, y, z = origin
-        window = by_z[np.searchsorted(z_low_sorted, z - reach, "left"):np.searchsorted(z_low_sorted, z, "right")]
-        near = window[(z_high[window] >= z) & (y_low[window] <= y) & (y_high[window] >= y)]
+        row, layer = np.floor((y - y0) / cell_y), np.floor((z - z0) / cell_z)
+        if row < 0 or layer < 0 or row > rows:
+            continue
+        window = []
+        for cell in (int(layer) * rows + int(row), int(layer - 1) * rows + int(row)):
+            first = np.searchsorted(bucket_sorted, cell - 1, "left")  # this row and the one below
+            window.append(by_bucket[first:np.searchsorted(bucket_sorted, cell, "right")])
+        window = np.concatenate(window)
+        near = window[(z_low[window] <= z) & (z_high[window] >= z) & (y_low[window] <= y) & (y_high[window] >= y)]
         if near.size == 0:
             continue
         tri = triangles[near]

@@ -90,13 +90,13 @@ class _SceneRenderer:
         self.scene.close()
 
 
-class _SliceStackRenderer:
+class _SliceStackRenderer(_SceneRenderer):
     """Texture slicing drawn by OpenGL: the slices are regenerated for each camera and blended by VTK."""
 
     def __init__(self, slicer, volume: Volume, size, background) -> None:
         from algorithms.texture_slicing import SliceStackProp
 
-        self.scene = OffscreenScene(size, background)
+        super().__init__(OffscreenScene(size, background))
         self.stack = SliceStackProp(slicer, user_matrix=volume.local_to_world)
         self.stack.attach(self.scene.renderer)
         self.to_local = np.linalg.inv(volume.local_to_world)
@@ -104,15 +104,7 @@ class _SliceStackRenderer:
 
     def frame(self, camera: Camera):
         self.stack.update(camera.transformed(self.to_local), *self.size)
-        self.scene.set_camera(camera)
-        self.scene.render()
-        return None
-
-    def capture(self) -> np.ndarray:
-        return self.scene.capture()
-
-    def close(self) -> None:
-        self.scene.close()
+        return super().frame(camera)
 
 
 class _ImageRenderer:

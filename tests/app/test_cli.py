@@ -101,6 +101,21 @@ def test_render_volume_modes_on_the_sample(tmp_path, mode):
     assert voxelscope("render", "sample", "--mode", mode, "-o", out, check=False).returncode == 1  # no overwrite
 
 
+def test_render_slicing_through_opengl_matches_the_float_path(tmp_path):
+    from algorithms.image_metrics import psnr_foreground
+
+    images = {}
+    for compositing in ("gl", "float"):
+        out = tmp_path / f"slicing-{compositing}.png"
+        report = json.loads(voxelscope("render", "sample", "--mode", "slicing", "--compositing", compositing,
+                                       "--slices", 96, "-o", out, "--size", 160, 128, "--frames", 2, "--json").stdout)
+        assert report["options"] == {"slices": 96, "compositing": compositing} and report["frames"] == 2
+        images[compositing] = read_png(out)
+    assert images["gl"][64, 80].max() > 40 and images["gl"][0, 0].max() == 0
+    # Same slices, blended in an 8-bit framebuffer by OpenGL or in float by us.
+    assert psnr_foreground(images["gl"] / 255.0, images["float"] / 255.0) > 40.0  # measured 52 dB
+
+
 def test_render_surface_mode_and_background(tmp_path):
     out = tmp_path / "fe.png"
     report = json.loads(voxelscope("render", "sample:mri", "--mode", "flying-edges", "-o", out, "--size", 96, 96,
