@@ -116,7 +116,8 @@ def _mesh(args) -> int:
     if args.fill_holes:
         cleanup["fill_holes_mm"] = args.fill_holes
     export = export_mesh(volume, args.output, method=args.method, iso=iso, step=args.step,
-                         coordinates=args.coordinates, cleanup=cleanup, overwrite=args.force)
+                         coordinates=args.coordinates, cleanup=cleanup, close_edges=args.close_edges,
+                         overwrite=args.force)
     stats = export.stats
     validity = export.validity or {}
     report = {
@@ -275,6 +276,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="quadric decimation: fraction of triangles to remove, in [0, 1)")
     mesh.add_argument("--largest", action="store_true", help="keep the largest connected component only")
     mesh.add_argument("--fill-holes", type=float, default=0.0, metavar="MM", help="close holes up to this size (mm)")
+    mesh.add_argument("--close-edges", action="store_true",
+                      help="cap the surface where it leaves the volume (within one voxel outside the data)")
     mesh.add_argument("--force", action="store_true", help="replace existing output files")
     mesh.add_argument("--json", action="store_true", help="print one JSON object")
 

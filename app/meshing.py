@@ -50,6 +50,18 @@ def extract_surface(volume: Volume, method: str, iso: float, *, step: int = 1,
     return mode.extract(volume, float(iso), step=step, progress=progress)
 
 
+def closed_at_edges(volume: Volume, iso: float) -> Volume:
+    """``volume`` padded by one voxel of a value below ``iso``, so that surfaces cut by the volume's edge close.
+
+    A skull that leaves the scanned region (the neck at the last slice, for example) then gets a cap within one voxel
+    outside the data instead of an open rim. The pad is the volume's minimum when that is below ``iso`` (air in CT),
+    else a value just below ``iso``.
+    """
+    low = float(volume.array.min())
+    pad = low if low < iso else iso - max(1.0, abs(iso) * 1e-3)
+    return volume.padded(pad)
+
+
 def to_world(polydata, volume: Volume, coordinates: str = "LPS"):
     """A copy of a volume-frame surface in patient coordinates (``LPS`` or ``RAS`` mm), strips kept.
 
@@ -197,9 +209,12 @@ def mesh_provenance(volume: Volume, *, method: str, iso: float, coordinates: str
 
 
 def export_mesh(volume: Volume, path, *, method: str, iso: float, step: int = 1, coordinates: str = "LPS",
-                cleanup: dict[str, Any] | None = None, overwrite: bool = False,
+                cleanup: dict[str, Any] | None = None, close_edges: bool = False, overwrite: bool = False,
                 progress: ProgressCallback = None, result: SurfaceResult | None = None) -> MeshExport:
     """Extract (unless ``result`` is given), clean up, validate and write a mesh with its sidecar.
+
+    ``close_edges`` extracts from :func:`closed_at_edges` (so it cannot reuse a ``result``): surfaces cut by the
+    volume's edge get a cap there.
 
     On the way out, coincident points are merged (voxel-face surfaces become connected) and triangles that merging
     collapses (zero area, where the isovalue equals sample values) are dropped; STL, PLY and OBJ get triangles.
@@ -216,8 +231,11 @@ def export_mesh(volume: Volume, path, *, method: str, iso: float, step: int = 1,
             if target.exists():
                 raise FileExistsRefusal(target)
     cleanup = dict(cleanup or {})
+    if close_edges and result is not None:
+        raise ValueError("close_edges extracts the surface again from the padded volume; do not pass a result")
     if result is None:
-        result = extract_surface(volume, method, iso, step=step, progress=scaled(progress, 0.0, 0.6))
+        source = closed_at_edges(volume, iso) if close_edges else volume
+        result = extract_surface(source, method, iso, step=step, progress=scaled(progress, 0.0, 0.6))
     polydata = result.polydata
     polydata = mesh_cleanup.apply(polydata, progress=scaled(progress, 0.6, 0.85), **cleanup)
     world = merge_duplicate_points(to_world(polydata, volume, coordinates))
@@ -225,7 +243,7 @@ def export_mesh(volume: Volume, path, *, method: str, iso: float, step: int = 1,
     validity = mesh_cleanup.validity_report(triangulated(world)).as_dict()
     stats = dict(result.stats)
     written_stats = {k: v for k, v in polydata_stats(written).items() if k != "bytes"}
-    parameters = {"step": step, **cleanup}
+    parameters = {"step": step, "close_edges": bool(close_edges), **cleanup}
     sidecar = mesh_provenance(volume, method=method, iso=iso, coordinates=coordinates.upper(), parameters=parameters,
                               stats=written_stats, validity=validity)
     paths = write_mesh(world, path, overwrite=overwrite, sidecar=sidecar)

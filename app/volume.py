@@ -267,6 +267,26 @@ class Volume:
             units=self.units, metadata=dict(self.metadata),
         )
 
+    def padded(self, value, width: int = 1) -> "Volume":
+        """The volume surrounded by ``width`` layers of ``value`` on every side; every voxel keeps its position.
+
+        The array becomes float32 when ``value`` does not fit its dtype exactly.
+        """
+        if int(width) != width or width < 1:
+            raise ValueError(f"the padding width is a number of voxels, 1 or more; got {width!r}")
+        array, value = self.array, float(value)
+        if np.issubdtype(array.dtype, np.integer):
+            limits = np.iinfo(array.dtype)
+            if not (value.is_integer() and limits.min <= value <= limits.max):
+                array = array.astype(np.float32)
+        elif array.dtype.type(value) != value:
+            array = array.astype(np.float32)
+        return Volume(
+            np.pad(array, int(width), constant_values=array.dtype.type(value)), spacing=self.spacing,
+            origin=tuple(self.index_to_world((-width, -width, -width))), direction=self.direction,
+            modality=self.modality, units=self.units, metadata=dict(self.metadata),
+        )
+
     def describe(self) -> dict[str, Any]:
         """The facts ``voxelscope info`` prints, JSON-serialisable."""
         lo, hi = self.value_range

@@ -80,6 +80,10 @@ class ExportOptionsDialog(QDialog):
         self.fill_holes.setSuffix(" mm")
         self.fill_holes.setSpecialValueText("off")
         form.addRow("Close holes up to", self.fill_holes)
+        self.close_edges = QCheckBox("Cap the surface where it leaves the volume")
+        self.close_edges.setToolTip("Extracts the surface again from the volume padded by one voxel of air, so a "
+                                    "skull cut by the last slice is closed there (for 3D printing)")
+        form.addRow(self.close_edges)
         buttons = QDialogButtonBox(QDialogButtonBox.Save | QDialogButtonBox.Cancel)
         buttons.accepted.connect(self.accept)
         buttons.rejected.connect(self.reject)
@@ -95,7 +99,8 @@ class ExportOptionsDialog(QDialog):
             cleanup["largest_component"] = True
         if self.fill_holes.value():
             cleanup["fill_holes_mm"] = self.fill_holes.value()
-        return {"coordinates": self.coordinates.currentData(), "cleanup": cleanup}
+        return {"coordinates": self.coordinates.currentData(), "cleanup": cleanup,
+                "close_edges": self.close_edges.isChecked()}
 
     @classmethod
     def ask(cls, path: str, parent=None) -> dict | None:

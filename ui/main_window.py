@@ -412,10 +412,11 @@ class MainWindow(QMainWindow):
         options = ExportOptionsDialog.ask(str(path), self)
         if options is None:
             return
-        volume, result = self.model.volume, view.current_surface()
+        close_edges = options.get("close_edges", False)
+        volume, result = self.model.volume, None if close_edges else view.current_surface()
         task = Task(f"Exporting {path.name}", export_mesh, volume, path, method=view.mode, iso=view.iso,
-                    coordinates=options["coordinates"], cleanup=options["cleanup"], overwrite=overwrite,
-                    result=result)
+                    coordinates=options["coordinates"], cleanup=options["cleanup"], close_edges=close_edges,
+                    overwrite=overwrite, result=result)
         task.finished.connect(lambda export: self.statusBar().showMessage(
             f"Wrote {export.paths[0]} ({export.written['triangles']:,} triangles, {options['coordinates']} mm) and its "
             f"sidecar", 15000))

@@ -101,6 +101,24 @@ def test_render_volume_modes_on_the_sample(tmp_path, mode):
     assert voxelscope("render", "sample", "--mode", mode, "-o", out, check=False).returncode == 1  # no overwrite
 
 
+def test_mesh_close_edges_caps_the_skull_at_the_last_slice(tmp_path):
+    # The phantom's skull runs into the bottom slice: the plain surface is open there, the capped one closed.
+    reports = {}
+    for extra in ((), ("--close-edges",)):
+        out = tmp_path / f"skull{len(extra)}.stl"
+        reports[extra] = json.loads(voxelscope("mesh", "sample", "--method", "marching-cubes", "--iso", 300, "-o", out,
+                                               "--json", *extra).stdout)
+    plain, capped = reports[()], reports[("--close-edges",)]
+    assert not plain["validity"]["watertight"]
+    assert capped["validity"]["watertight"] and capped["validity"]["manifold"]
+    assert capped["validity"]["outward_normals"]
+    assert capped["triangles"] > plain["triangles"]
+    # The cap adds area only where the skull meets the volume's edge: a few per cent.
+    assert 1.0 < capped["validity"]["area_mm2"] / plain["validity"]["area_mm2"] < 1.05
+    sidecar = json.loads((tmp_path / "skull1.stl.json").read_text())
+    assert sidecar["parameters"]["close_edges"] is True
+
+
 def test_render_slicing_through_opengl_matches_the_float_path(tmp_path):
     from algorithms.image_metrics import psnr_foreground
 

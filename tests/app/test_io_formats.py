@@ -228,6 +228,20 @@ def test_crop_keeps_world_positions():
         volume.crop((0, 4), (5, 5), (0, 2))
 
 
+def test_padding_keeps_world_positions_and_widens_the_dtype_only_when_needed():
+    volume = small_ct()
+    volume.direction = tilted_direction(25.0)
+    padded = volume.padded(-1024, width=2)
+    assert padded.dimensions == tuple(n + 4 for n in volume.dimensions) and padded.array.dtype == volume.array.dtype
+    assert np.allclose(padded.index_to_world((2, 2, 2)), volume.index_to_world((0, 0, 0)))
+    assert padded.array[2 + 3, 2 + 4, 2 + 5] == volume.array[3, 4, 5]
+    assert (padded.array[:2] == -1024).all() and (padded.array[:, :, -2:] == -1024).all()
+    assert volume.padded(0.5).array.dtype == np.float32  # not an int16 value
+    assert volume.padded(-40000).array.dtype == np.float32  # outside int16's range
+    with pytest.raises(ValueError, match="padding width"):
+        volume.padded(0, width=0)
+
+
 def test_volume_validation():
     with pytest.raises(ValueError, match="3D array"):
         Volume(np.zeros((3, 3)))

@@ -144,6 +144,39 @@ def test_export_mesh_through_the_menu(qtbot, window, small_ct_file, tmp_path, mo
     assert sidecar["counts"]["triangles"] == read.GetNumberOfCells()
 
 
+def test_export_with_capped_edges_re_extracts_a_closed_surface(qtbot, window, small_ct_file, tmp_path, monkeypatch):
+    from ui.dialogs import ExportOptionsDialog
+
+    open_and_wait(qtbot, window, small_ct_file)
+    out = tmp_path / "capped.stl"
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *args, **kwargs: (str(out), "STL (*.stl)"))
+    monkeypatch.setattr(ExportOptionsDialog, "ask", classmethod(lambda cls, path, parent=None: {
+        "coordinates": "RAS", "cleanup": {}, "close_edges": True}))
+    with qtbot.waitSignal(window.tasks.ended, timeout=60_000, check_params_cb=lambda t: "Exporting" in t.label):
+        window.export_mesh()
+    sidecar = json.loads(Path(str(out) + ".json").read_text())
+    assert sidecar["parameters"]["close_edges"] is True and sidecar["coordinate_system"] == "RAS"
+    assert sidecar["validity"]["watertight"] and sidecar["validity"]["outward_normals"]
+
+
+def test_export_options_dialog_reports_every_choice(qtbot):
+    from ui.dialogs import ExportOptionsDialog
+
+    dialog = ExportOptionsDialog("skull.stl")
+    qtbot.addWidget(dialog)
+    assert dialog.options() == {"coordinates": "LPS", "cleanup": {}, "close_edges": False}
+    dialog.coordinates.setCurrentIndex(1)
+    dialog.smooth.setValue(20)
+    dialog.decimate.setValue(0.5)
+    dialog.largest.setChecked(True)
+    dialog.fill_holes.setValue(4.0)
+    dialog.close_edges.setChecked(True)
+    assert dialog.options() == {
+        "coordinates": "RAS", "close_edges": True,
+        "cleanup": {"smooth_iterations": 20, "decimate": 0.5, "largest_component": True, "fill_holes_mm": 4.0},
+    }
+
+
 def test_view_screenshot_matches_the_baseline(qtbot, window, small_ct_file, tmp_path):
     """The flying-edges view of the small phantom, anterior camera, 1x1 layout at a fixed window size.
 
