@@ -230,8 +230,8 @@ def test_marching_cubes_mesh_for_a_clinician(tmp_path):
     assert validity["manifold"] and validity["outward_normals"] and validity["components"] == 1
     assert report["written"]["triangles"] < 0.6 * report["triangles"]  # decimated by half
     sidecar = json.loads(Path(str(out) + ".json").read_text())
-    assert sidecar["parameters"] == {"step": 1, "smooth_iterations": 20, "smooth_passband": 0.1, "decimate": 0.5,
-                                     "largest_component": True}
+    assert sidecar["parameters"] == {"step": 1, "close_edges": False, "smooth_iterations": 20, "smooth_passband": 0.1,
+                                     "decimate": 0.5, "largest_component": True}
     assert sidecar["validity"] == validity and sidecar["method"] == "marching-cubes"
     from vtkmodules.vtkIOGeometry import vtkSTLReader
 
