@@ -1,38 +1,45 @@
 """Voxelscope's algorithm cores (NumPy/numba) and their thin VTK filter wrappers. No Qt, no application state.
 
-Every module names its method, its source document in ``../shared/seeds/`` and the original paper:
+The algorithms are grouped by what they take and give (families); a family imports only :mod:`.common` and
+:mod:`.compare`, never another family (an import-linter contract in ``pyproject.toml`` checks it):
 
-- :mod:`.voxel_faces`, :mod:`.tower`: visible voxel faces and the tower triangle strips (source 000)
-- :mod:`.marching_cubes`: marching cubes with Bourke's case tables (source 001)
-- :mod:`.raymarch`: ray-marched volume rendering, Beer-Lambert absorption, shading, scattering (sources 001, 002)
-- :mod:`.texture_slicing`: view- and axis-aligned texture slicing (sources 001, 002)
-- :mod:`.shear_warp`: shear-warp with run-length encoding and early termination (source 004)
-- :mod:`.surface_compare`, :mod:`.image_metrics`, :mod:`.voxel_surface_checks`: the comparison toolkits
-- :mod:`.camera`, :mod:`.transfer`, :mod:`.render_result`: what the renderers share
+- :mod:`.common`: what every family shares: progress and cancellation, the NumPy-VTK bridge, input validation,
+  camera, transfer tables, rendered frames, sampling and pixel-ray kernels, the renderer filter base, and the mesh
+  types (triangle meshes, triangle strips, tetrahedral meshes).
+- :mod:`.surfaces`: volume -> surface: visible voxel faces and the tower strips (source 000), marching cubes
+  (source 001).
+- :mod:`.rendering`: volume -> image: ray marching (sources 001, 002), texture slicing (sources 001, 002),
+  shear-warp (source 004).
+- :mod:`.compare`: the checks: triangle-set comparison, measures, topology, image metrics, voxel-face coverage.
+- :mod:`.references`: the VTK built-ins we compare against (contouring, voxel faces, strips, volume mappers).
+- :mod:`.datasets`: synthetic volumes and fields for tests and benchmarks.
+
+Every module names its method and cites its source by the short names of ``docs/references.md`` ("source 000"
+... "source 004", with author and title where the document names them) and the original papers.
 """
 
 import importlib
 
 # Public names and the module that defines each. They are imported on first use (PEP 562), like scikit-image's
-# lazy loading, so ``import algorithms._vtk`` does not pull numba and every renderer into a short command.
-# Functions named like their module (voxel_faces, marching_cubes, raymarch) are not re-exported: the package
-# attribute of that name is the submodule once it is imported; use ``from algorithms.marching_cubes import
-# marching_cubes``.
+# lazy loading, so ``import algorithms.common.progress`` does not pull numba and every renderer into a short
+# command.
 _EXPORTS = {
-    "Camera": "camera", "TransferTable": "transfer", "RenderResult": "render_result",
-    "VoxelFaces": "voxel_faces", "VoxelFacesFilter": "voxel_faces",
-    "tower_strips": "tower", "hybrid": "tower", "TriangleStrips": "tower", "HybridSurface": "tower",
-    "TowerFilter": "tower", "HybridFilter": "tower",
-    "MarchingCubesMesh": "marching_cubes",
-    "MarchingCubesFilter": "marching_cubes",
-    "RaymarchRenderer": "raymarch", "RaymarchFilter": "raymarch",
-    "slice_polygons": "texture_slicing", "SlicingRenderer": "texture_slicing", "SliceStackProp": "texture_slicing",
-    "TextureSlicingFilter": "texture_slicing",
-    "factorize": "shear_warp", "ShearWarpRenderer": "shear_warp", "ShearWarpFilter": "shear_warp",
-    "compare_images": "image_metrics", "ImageComparison": "image_metrics", "psnr": "image_metrics",
-    "psnr_foreground": "image_metrics", "ssim": "image_metrics",
-    "same_triangles": "surface_compare", "hausdorff": "surface_compare", "surface_area": "surface_compare",
-    "enclosed_volume": "surface_compare",
+    "Camera": "common.camera", "TransferTable": "common.transfer", "RenderResult": "common.render_result",
+    "TriangleMesh": "common.mesh", "TriangleStrips": "common.mesh", "TetMesh": "common.mesh",
+    "voxel_faces": "surfaces.voxel_faces", "VoxelFaces": "surfaces.voxel_faces",
+    "VoxelFacesFilter": "surfaces.voxel_faces",
+    "tower_strips": "surfaces.tower", "hybrid": "surfaces.tower", "TowerStrips": "surfaces.tower",
+    "HybridSurface": "surfaces.tower", "TowerFilter": "surfaces.tower", "HybridFilter": "surfaces.tower",
+    "marching_cubes": "surfaces.marching_cubes", "MarchingCubesMesh": "surfaces.marching_cubes",
+    "MarchingCubesFilter": "surfaces.marching_cubes",
+    "raymarch": "rendering.raymarch", "RaymarchRenderer": "rendering.raymarch", "RaymarchFilter": "rendering.raymarch",
+    "slice_polygons": "rendering.texture_slicing", "SlicingRenderer": "rendering.texture_slicing",
+    "SliceStackProp": "rendering.texture_slicing", "TextureSlicingFilter": "rendering.texture_slicing",
+    "factorize": "rendering.shear_warp", "ShearWarpRenderer": "rendering.shear_warp",
+    "ShearWarpFilter": "rendering.shear_warp",
+    "compare_images": "compare.image_metrics", "ImageComparison": "compare.image_metrics",
+    "psnr": "compare.image_metrics", "psnr_foreground": "compare.image_metrics", "ssim": "compare.image_metrics",
+    "same_triangles": "compare", "hausdorff": "compare", "surface_area": "compare", "enclosed_volume": "compare",
 }
 __all__ = sorted(_EXPORTS)
 

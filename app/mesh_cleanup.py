@@ -1,8 +1,8 @@
 """Clinician-ready post-processing of extracted surfaces, headless: smoothing, decimation, clean-up, validation.
 
 Each step takes a triangle ``vtkPolyData`` (strips and polygons are triangulated first) in millimetres and returns
-a new one, running VTK's filter through :func:`algorithms._vtk.run_algorithm`, so progress is forwarded and VTK
-errors become exceptions. Steps that move points recompute point normals when the input had them (stale normals
+a new one, running VTK's filter through :func:`algorithms.common.vtk_bridge.run_algorithm`, so progress is forwarded
+and VTK errors become exceptions. Steps that move points recompute point normals when the input had them (stale normals
 would shade the old shape); winding is never changed except by :func:`fill_small_holes`, which makes the patches
 agree with their surroundings.
 
@@ -12,7 +12,7 @@ agree with their surroundings.
 - :func:`fill_small_holes`: close holes up to a size, e.g. where a surface meets the edge of the scan;
   ``vtkFillHolesFilter``.
 - :func:`validity_report`: watertight, manifold, outward, pieces, counts, area and volume, from
-  :mod:`algorithms.surface_compare`.
+  :mod:`algorithms.compare`.
 - :func:`apply`: the steps chosen for an export, in that order (largest piece, holes, smoothing, decimation).
 """
 
@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 from vtkmodules.vtkCommonDataModel import vtkPolyData
 
-from algorithms import surface_compare
-from algorithms._progress import ProgressCallback, report, scaled
-from algorithms._vtk import run_algorithm
+from algorithms import compare as surface_compare
+from algorithms.common.progress import ProgressCallback, report, scaled
+from algorithms.common.vtk_bridge import run_algorithm
 
 __all__ = [
     "ValidityReport",

@@ -16,13 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from algorithms._progress import ProgressCallback, scaled
+from algorithms.common.progress import ProgressCallback, scaled
 
-from algorithms.surface_compare import triangulated
+from algorithms.compare import triangulated
 
 from .io.atomic import atomic_output
 from .io.errors import FileExistsRefusal, VolumeWriteError
-from .modes import SurfaceResult, get_mode, polydata_stats
+from .pipeline.surfaces import SurfaceResult, polydata_stats
 from .volume import Volume
 
 MESH_SUFFIXES = (".stl", ".ply", ".obj", ".vtp")
@@ -37,17 +37,26 @@ def default_iso(volume: Volume) -> float:
     return lo + 0.35 * (hi - lo)
 
 
-def extract_surface(volume: Volume, method: str, iso: float, *, step: int = 1,
+def extract_surface(volume, method: str, iso: float, *, stride: int = 1, options: dict[str, Any] | None = None,
                     progress: ProgressCallback = None) -> SurfaceResult:
-    """Run a registered surface method (``voxelscope mesh --method``) on ``volume`` at ``iso``."""
+    """Run a registered surface mode (``voxelscope mesh --method``) on a volume (or scene item) at ``iso``.
+
+    The surface is in the volume frame; ``stride`` > 1 uses the mode's coarse path.
+    """
+    from .modes import get_mode
+
     mode = get_mode(method)
-    if mode.kind != "surface":
-        raise ValueError(f"{method!r} is a {mode.kind} mode, not a surface method")
-    if not np.isfinite(iso):
-        raise ValueError(f"the isovalue must be a finite number, got {iso}")
-    if step < 1:
-        raise ValueError(f"step must be 1 or more, got {step}")
-    return mode.extract(volume, float(iso), step=step, progress=progress)
+    if mode.output != "surface" or mode.input != "volume":
+        raise ValueError(f"{method!r} does not extract surfaces from volumes; choose one of "
+                         f"{', '.join(surface_methods())}")
+    return mode.extract(volume, float(iso), stride=stride, options=options, progress=progress)
+
+
+def surface_methods() -> list[str]:
+    """The registered modes that extract a surface from a volume (``voxelscope mesh --method``)."""
+    from .modes import mode_names
+
+    return mode_names(input="volume", output="surface")
 
 
 def closed_at_edges(volume: Volume, iso: float) -> Volume:
@@ -71,7 +80,7 @@ def to_world(polydata, volume: Volume, coordinates: str = "LPS"):
     from vtkmodules.vtkCommonTransforms import vtkTransform
     from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
 
-    from algorithms._vtk import run_algorithm, vtk_matrix
+    from algorithms.common.vtk_bridge import run_algorithm, vtk_matrix
 
     coordinates = coordinates.upper()
     if coordinates not in COORDINATE_SYSTEMS:
@@ -95,7 +104,7 @@ def merge_duplicate_points(polydata):
     connected mesh is what an STL or PLY user expects. Cells, degenerate ones included, are kept as they are."""
     from vtkmodules.vtkFiltersCore import vtkCleanPolyData
 
-    from algorithms._vtk import run_algorithm
+    from algorithms.common.vtk_bridge import run_algorithm
 
     clean = vtkCleanPolyData()
     clean.SetInputData(polydata)
@@ -208,7 +217,8 @@ def mesh_provenance(volume: Volume, *, method: str, iso: float, coordinates: str
     }
 
 
-def export_mesh(volume: Volume, path, *, method: str, iso: float, step: int = 1, coordinates: str = "LPS",
+def export_mesh(volume: Volume, path, *, method: str, iso: float, stride: int = 1,
+                options: dict[str, Any] | None = None, coordinates: str = "LPS",
                 cleanup: dict[str, Any] | None = None, close_edges: bool = False, overwrite: bool = False,
                 progress: ProgressCallback = None, result: SurfaceResult | None = None) -> MeshExport:
     """Extract (unless ``result`` is given), clean up, validate and write a mesh with its sidecar.
@@ -235,7 +245,8 @@ def export_mesh(volume: Volume, path, *, method: str, iso: float, step: int = 1,
         raise ValueError("close_edges extracts the surface again from the padded volume; do not pass a result")
     if result is None:
         source = closed_at_edges(volume, iso) if close_edges else volume
-        result = extract_surface(source, method, iso, step=step, progress=scaled(progress, 0.0, 0.6))
+        result = extract_surface(source, method, iso, stride=stride, options=options,
+                                 progress=scaled(progress, 0.0, 0.6))
     polydata = result.polydata
     polydata = mesh_cleanup.apply(polydata, progress=scaled(progress, 0.6, 0.85), **cleanup)
     world = merge_duplicate_points(to_world(polydata, volume, coordinates))
@@ -243,7 +254,7 @@ def export_mesh(volume: Volume, path, *, method: str, iso: float, step: int = 1,
     validity = mesh_cleanup.validity_report(triangulated(world)).as_dict()
     stats = dict(result.stats)
     written_stats = {k: v for k, v in polydata_stats(written).items() if k != "bytes"}
-    parameters = {"step": step, "close_edges": bool(close_edges), **cleanup}
+    parameters = {"stride": stride, **(options or {}), "close_edges": bool(close_edges), **cleanup}
     sidecar = mesh_provenance(volume, method=method, iso=iso, coordinates=coordinates.upper(), parameters=parameters,
                               stats=written_stats, validity=validity)
     paths = write_mesh(world, path, overwrite=overwrite, sidecar=sidecar)

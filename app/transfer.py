@@ -7,7 +7,7 @@ Resolving a preset against a volume gives a :class:`TransferFunction`, which bui
 
 - VTK's ``vtkVolumeProperty`` (``vtkColorTransferFunction`` + ``vtkPiecewiseFunction``, linear interpolation,
   ``ScalarOpacityUnitDistance``) for the ``vtk-gpu`` and ``vtk-cpu`` modes, and
-- our :class:`algorithms.transfer.TransferTable` for ``raymarch``, ``slicing`` and ``shear-warp``,
+- our :class:`algorithms.common.transfer.TransferTable` for ``raymarch``, ``slicing`` and ``shear-warp``,
 
 with the same meaning: piecewise-linear colour and opacity, clamped outside the control points, opacity per
 ``unit_distance`` millimetres, corrected for the sample distance as ``1 - (1 - a) ** (step / unit_distance)``.
@@ -21,7 +21,7 @@ from typing import Sequence
 
 import numpy as np
 
-from algorithms.transfer import TransferTable
+from algorithms.common.transfer import TransferTable
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from algorithms._vtk import array_from_image, image_from_array
+from algorithms.common.vtk_bridge import array_from_image, image_from_array
 
 #: Anatomical names of the LPS axes, for labels: (negative end, positive end) per axis.
 LPS_AXIS_LABELS = (("R", "L"), ("A", "P"), ("I", "S"))
@@ -252,6 +252,49 @@ class Volume:
         )
         values.update(changes)
         return Volume(array, **values)
+
+    @property
+    def grid(self):
+        """The volume's :class:`~algorithms.common.grid.Grid` (dimensions, spacing, origin, direction)."""
+        from algorithms.common.grid import Grid
+
+        return Grid(self.dimensions, self.spacing, self.origin, tuple(self.direction.ravel()))
+
+    @classmethod
+    def on_grid(cls, array: np.ndarray, grid, **values) -> "Volume":
+        """A volume holding ``array`` (shape ``grid.shape``) on ``grid``."""
+        if np.shape(array) != grid.shape:
+            raise ValueError(f"an array of shape {np.shape(array)} does not fit a grid of shape {grid.shape}")
+        return cls(array, spacing=grid.spacing, origin=grid.origin, direction=grid.direction_matrix, **values)
+
+    def resampled(self, grid, *, order: int = 1, fill: float | None = None, progress=None) -> "Volume":
+        """The volume sampled at the voxel centres of another ``grid`` (any spacing, origin, direction).
+
+        ``order`` 1 interpolates trilinearly (continuous values), 0 takes the nearest voxel (labels and masks).
+        Points outside the volume get ``fill`` (default: the volume's minimum). The values keep their type for
+        ``order=0``; trilinear results are float32 unless the volume holds integers and ``order=0``. Works one
+        output slice at a time, so memory stays near the output's size.
+        """
+        from scipy import ndimage
+
+        if order not in (0, 1):
+            raise ValueError(f"resampling order must be 0 (nearest) or 1 (trilinear), got {order}")
+        fill = float(self.value_range[0]) if fill is None else float(fill)
+        dtype = self.array.dtype if order == 0 else np.float32
+        output = np.empty(grid.shape, dtype=dtype)
+        nx, ny, nz = grid.dimensions
+        j, i = np.mgrid[0:ny, 0:nx]
+        source = self.array if order == 0 else self.array.astype(np.float32, copy=False)
+        for k in range(nz):
+            ijk = np.stack([i.ravel(), j.ravel(), np.full(i.size, k)], axis=1)
+            index = self.world_to_index(grid.index_to_world(ijk))
+            coordinates = index[:, ::-1].T  # (k, j, i) rows for the (nz, ny, nx) array
+            output[k] = ndimage.map_coordinates(source, coordinates, order=order, mode="constant", cval=fill,
+                                                prefilter=False).reshape(ny, nx)
+            if progress is not None:
+                progress((k + 1) / nz)
+        return Volume.on_grid(output, grid, modality=self.modality, units=self.units,
+                              metadata={**self.metadata, "resampled_from": self.grid.describe()})
 
     def crop(self, i: tuple[int, int], j: tuple[int, int], k: tuple[int, int]) -> "Volume":
         """The voxels ``i[0] <= i < i[1]`` (and likewise j, k) as a volume at the same place in the patient."""

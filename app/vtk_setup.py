@@ -3,7 +3,7 @@
 - VTK's SMP back end: the PyPI wheels run SMP-parallel filters (vtkFlyingEdges3D, ...) sequentially unless the
   STDThread back end is selected; Voxelscope selects it so VTK's built-ins use every core, as ours do.
 - VTK's error and warning output goes to Python's ``logging`` (logger ``vtk``) instead of the terminal, so users
-  see our messages, not VTK's; :func:`algorithms._vtk.run_algorithm` turns errors into exceptions.
+  see our messages, not VTK's; :func:`algorithms.common.vtk_bridge.run_algorithm` turns errors into exceptions.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""The import layering ui -> app -> algorithms, and no Qt below ui, checked by import-linter's contracts."""
+"""The import layering ui -> app -> algorithms, the algorithm families above compare above common, and no Qt below
+ui, checked by import-linter's contracts."""
 
 from __future__ import annotations
 
@@ -11,6 +12,9 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
+#: The algorithm packages the families contract names (its optional layers aside).
+FAMILIES = tuple(f"algorithms/{name}" for name in ("common", "compare", "surfaces", "rendering", "references",
+                                                    "datasets"))
 
 
 def lint(directory: Path) -> subprocess.CompletedProcess:
@@ -20,10 +24,22 @@ def lint(directory: Path) -> subprocess.CompletedProcess:
                           env={"PYTHONPATH": str(directory), "PATH": str(lint_imports.parent)})
 
 
+def test_contract_names_every_algorithm_family():
+    """Every subpackage of algorithms is a layer of the families contract (a new family must be placed there)."""
+    import tomllib
+
+    contracts = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"]
+    families = next(c for c in contracts if c["name"].startswith("algorithms families"))
+    named = {name.strip(" ()") for layer in families["layers"] for name in layer.split("|")}
+    packages = {f"algorithms.{path.parent.name}" for path in (ROOT / "algorithms").glob("*/__init__.py")}
+    assert packages <= named, packages - named
+    assert {f"algorithms.{path.split('/')[1]}" for path in FAMILIES} <= named
+
+
 def test_contracts_hold_for_the_project():
     result = lint(ROOT)
     assert result.returncode == 0, result.stdout + result.stderr
-    assert "2 kept, 0 broken" in result.stdout
+    assert "3 kept, 0 broken" in result.stdout
 
 
 @pytest.mark.parametrize(
@@ -32,13 +48,21 @@ def test_contracts_hold_for_the_project():
         ("algorithms/bad.py", "import app.volume\n", "Layers"),
         ("app/bad.py", "import qtpy\n", "never import Qt"),
         ("app/bad.py", "from ui import window\n", "Layers"),
+        ("algorithms/surfaces/bad.py", "import algorithms.rendering\n", "families"),
+        ("algorithms/rendering/bad.py", "from algorithms.references import vtk_surfaces\n", "families"),
+        ("algorithms/datasets/bad.py", "import algorithms.surfaces\n", "families"),
+        ("algorithms/compare/bad.py", "import algorithms.surfaces\n", "families"),
+        ("algorithms/common/bad.py", "from algorithms.compare import measures\n", "families"),
     ],
 )
 def test_contracts_catch_violations(tmp_path, module, source, broken):
     """The same contracts, applied to a tiny copy of the layout with one forbidden import, must fail."""
-    for package in ("algorithms", "app", "ui"):
-        (tmp_path / package).mkdir()
+    for package in FAMILIES + ("algorithms", "app", "ui"):
+        (tmp_path / package).mkdir(parents=True, exist_ok=True)
         (tmp_path / package / "__init__.py").write_text("")
+    for family in FAMILIES:  # modules the bad imports name
+        for name in ("vtk_surfaces", "measures"):
+            (tmp_path / family / f"{name}.py").write_text("")
     (tmp_path / "ui" / "window.py").write_text("import app\n")
     (tmp_path / "qtpy").mkdir()
     (tmp_path / "qtpy" / "__init__.py").write_text("")
@@ -47,3 +71,36 @@ def test_contracts_catch_violations(tmp_path, module, source, broken):
     result = lint(tmp_path)
     assert result.returncode != 0
     assert "BROKEN" in result.stdout and broken in result.stdout
+
+
+# -- the shape of the code ------------------------------------------------------------------------------------------
+def _tracked_python(*folders: str) -> list[Path]:
+    listed = subprocess.run(["git", "ls-files", "--cached", "--others", "--exclude-standard", *folders], cwd=ROOT,
+                            capture_output=True, text=True, check=True).stdout.split()
+    return [ROOT / name for name in listed if name.endswith(".py") and (ROOT / name).exists()]
+
+
+def test_the_window_never_branches_on_what_a_mode_is():
+    """ui/ hosts the shared pipeline; deciding by a mode's kind or name belongs to app/ (the registry)."""
+    import re
+
+    pattern = re.compile(r"kind ==|\.kind in|mode\.name ==|\.output ==|\.output in")
+    offenders = [f"{path.relative_to(ROOT)}:{number}: {line.strip()}"
+                 for path in _tracked_python("ui")
+                 for number, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
+    assert not offenders, "\n".join(offenders)
+
+
+def test_no_module_is_longer_than_a_reader_can_hold():
+    long = [f"{path.relative_to(ROOT)} ({count} lines)" for path in _tracked_python("algorithms", "app", "ui")
+            if "tables" not in path.name and (count := len(path.read_text().splitlines())) > 600]
+    assert not long, long
+
+
+def test_sources_are_cited_by_title_not_by_a_path_outside_the_repository():
+    listed = subprocess.run(["git", "ls-files", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
+                            capture_output=True, text=True, check=True).stdout.split()
+    texts = [ROOT / name for name in listed if name.endswith((".py", ".md")) and not name.startswith("tests/")
+             and (ROOT / name).exists()]
+    offenders = [str(path.relative_to(ROOT)) for path in texts if "shared/seeds" in path.read_text()]
+    assert not offenders, offenders

@@ -22,7 +22,7 @@ from qtpy.QtWidgets import (
     QWidget,
 )
 
-from app.rendering import STANDARD_VIEWS
+from app.pipeline import STANDARD_VIEWS
 from app.transfer import PRESETS
 from app.workbench import LAYOUTS, WorkbenchModel
 
@@ -165,7 +165,7 @@ class ControlPanel(QWidget):
         self.window_presets.activated.connect(self._window_preset)
 
         # Model -> controls
-        model.volume_changed.connect(self._volume_changed)
+        model.item_changed.connect(self._item_changed)
         model.iso_changed.connect(self._iso_changed)
         model.transfer_function_changed.connect(self._transfer_function_changed)
         model.window_level_changed.connect(self._window_level_changed)
@@ -206,6 +206,12 @@ class ControlPanel(QWidget):
             self.iso_spin.setValue(iso)
 
     # -- other model changes -------------------------------------------------------------------------------------
+    def _item_changed(self, item) -> None:
+        """The 3D views show a new item: its values set the isovalue's range and the histogram."""
+        volume = getattr(item, "volume", None)
+        if volume is not None:
+            self._volume_changed(volume)
+
     def _volume_changed(self, volume) -> None:
         self.setEnabled(True)
         facts = volume.describe()

@@ -86,7 +86,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     def finish() -> None:
         if args.screenshot:
-            from app.render_job import write_png
+            from app.pipeline import write_png
 
             write_png(window.grab_window(), args.screenshot, overwrite=args.force)
             print(f"Saved {args.screenshot}")

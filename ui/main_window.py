@@ -3,15 +3,11 @@ export actions, and a status bar with progress and Cancel for long work."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import numpy as np
 from qtpy.QtCore import QByteArray, QSettings, Qt, QTimer, Signal
 from qtpy.QtGui import QAction, QActionGroup, QKeySequence
 from qtpy.QtWidgets import (
     QApplication,
     QDockWidget,
-    QFileDialog,
     QGridLayout,
     QHBoxLayout,
     QLabel,
@@ -23,33 +19,32 @@ from qtpy.QtWidgets import (
     QWidget,
 )
 
-from algorithms.camera import Camera
-from app.io import READABLE_SUFFIXES, FileExistsRefusal, list_series
-from app.meshing import export_mesh, sidecar_path
+from algorithms.common.camera import Camera
 from app.modes import get_mode
-from app.render_job import write_png
-from app.rendering import default_camera
+from app.operations import operations
+from app.pipeline import default_camera, view_inputs
 from app.samples import sample_path
-from app.workbench import LAYOUTS, MAX_VIEWS, WorkbenchModel, load_for_workbench
+from app.workbench import LAYOUTS, MAX_VIEWS, WorkbenchModel
 
 from .camera_link import CameraLink
 from .controls import ControlPanel
-from .dialogs import ExportOptionsDialog, SeriesChooser
 from .render_view import RenderView
+from .scene_panel import ScenePanel
+from .window_export import ExportActions
+from .window_files import FileActions
+from .window_scene import SceneActions
 from .slice_view import SliceView
 from .tasks import Task, TaskRunner
 
-MAX_RECENT = 8
-VOLUME_FILTER = "Volumes (" + " ".join(f"*{s}" for s in READABLE_SUFFIXES) + ");;All files (*)"
-MESH_FILTER = "STL (*.stl);;PLY (*.ply);;OBJ (*.obj);;VTK polydata (*.vtp)"
 
 
-class MainWindow(QMainWindow):
+class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
     """The workbench. ``settings`` defaults to the user's Voxelscope settings (tests pass a temporary file)."""
 
     all_views_ready = Signal()
     volume_loaded = Signal(object)
     load_failed = Signal(str)
+    operation_finished = Signal(object)  # the new scene item
 
     def __init__(self, settings: QSettings | None = None, parent=None) -> None:
         super().__init__(parent)
@@ -59,7 +54,6 @@ class MainWindow(QMainWindow):
         self.tasks = TaskRunner(self)
         self.camera_link = CameraLink(self)
         self.active_view = 0
-        self.image = None  # shared vtkImageData of the volume (volume frame)
         self.ask_for_series = True  # False in scripted runs: open the largest series without a dialog
 
         # Views
@@ -72,6 +66,7 @@ class MainWindow(QMainWindow):
             view = RenderView(index, self.tasks, self.grid_widget)
             view.plotter.setAcceptDrops(False)  # drops open volumes in the window, not meshes in a view
             view.mode_chosen.connect(self.model.set_view_mode)
+            view.options_chosen.connect(lambda index, values: self.model.set_view_options(index, **values))
             view.ready.connect(self._view_ready)
             view.activated.connect(self._set_active_view)
             view.failed.connect(self._report_error)
@@ -107,6 +102,16 @@ class MainWindow(QMainWindow):
         self.control_dock.setMinimumWidth(300)
         self.addDockWidget(Qt.RightDockWidgetArea, self.control_dock)
 
+        # Scene: the items, which one the views show
+        self.scene_panel = ScenePanel(self.model)
+        self.scene_panel.show_requested.connect(lambda name: self.model.show_item(self.model.scene.get(name)))
+        self.scene_panel.remove_requested.connect(self._remove_item)
+        self.scene_dock = QDockWidget("Scene", self)
+        self.scene_dock.setObjectName("scene")
+        self.scene_dock.setWidget(self.scene_panel)
+        self.addDockWidget(Qt.RightDockWidgetArea, self.scene_dock)
+        self._overlay_cache: dict[str, tuple] = {}
+
         # Status bar: message, progress, cancel
         self.progress = QProgressBar()
         self.progress.setRange(0, 100)
@@ -134,12 +139,17 @@ class MainWindow(QMainWindow):
         self.setAcceptDrops(True)
 
         # Model -> window
+        self.model.item_changed.connect(self._item_changed)
         self.model.volume_changed.connect(self._volume_changed)
+        self.model.scene.item_added.connect(lambda item: self._overlays_changed())
+        self.model.scene.item_removed.connect(lambda item: self._overlays_changed())
+        self.model.scene.item_changed.connect(lambda item: self._overlays_changed())
         self.model.iso_changed.connect(lambda iso: self._each_visible(lambda v: v.set_iso(iso)))
         self.model.transfer_function_changed.connect(
             lambda tf: self._each_visible(lambda v: v.set_transfer_function(tf)))
         self.model.layout_changed.connect(self._apply_layout)
         self.model.view_mode_changed.connect(self._view_mode_changed)
+        self.model.view_options_changed.connect(lambda index, options: self.views[index].set_options(options))
         self.model.cameras_linked_changed.connect(self.camera_link.set_linked)
         self.model.cursor_changed.connect(lambda p: [v.set_cursor(p) for v in self.slice_views.values()])
         self.model.window_level_changed.connect(
@@ -151,7 +161,8 @@ class MainWindow(QMainWindow):
     # -- menus ------------------------------------------------------------------------------------------------
     def _build_menus(self) -> None:
         file_menu = self.menuBar().addMenu("&File")
-        self.open_action = self._action(file_menu, "&Open volume...", self.open_file_dialog, QKeySequence.Open)
+        self.open_action = self._action(file_menu, "&Open volume or mesh...", self.open_file_dialog,
+                                        QKeySequence.Open)
         self._action(file_menu, "Open &DICOM folder...", self.open_folder_dialog, "Ctrl+D")
         self._action(file_menu, "Open another series of this &folder...", self.open_other_series)
         self._action(file_menu, "Open &sample CT", lambda: self.open_path(sample_path("ct")))
@@ -163,6 +174,15 @@ class MainWindow(QMainWindow):
         self._action(file_menu, "Save screenshot of &all views...", self.save_grid_screenshot, "Ctrl+Shift+S")
         file_menu.addSeparator()
         self._action(file_menu, "&Quit", self.close, QKeySequence.Quit)
+
+        operations_menu = self.menuBar().addMenu("&Operations")
+        group_menus: dict[str, object] = {}
+        for operation in operations():
+            menu = group_menus.get(operation.group)
+            if menu is None:
+                menu = group_menus[operation.group] = operations_menu.addMenu(operation.group)
+            action = self._action(menu, operation.label + "...", lambda _=False, n=operation.name: self.run_operation(n))
+            action.setToolTip(operation.description)
 
         view_menu = self.menuBar().addMenu("&View")
         group = QActionGroup(self)
@@ -199,106 +219,35 @@ class MainWindow(QMainWindow):
         QMessageBox.about(self, "About Voxelscope", f"Voxelscope {__version__}\nA workbench for medical and "
                                                     "scientific volumes: render modes side by side, mesh export.")
 
-    # -- opening ---------------------------------------------------------------------------------------------
-    def open_file_dialog(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Open volume", self._last_folder(), VOLUME_FILTER)
-        if path:
-            self.open_path(path)
-
-    def open_folder_dialog(self) -> None:
-        folder = QFileDialog.getExistingDirectory(self, "Open DICOM folder", self._last_folder())
-        if folder:
-            self.open_path(folder)
-
-    def open_path(self, path, series_uid: str | None = None) -> None:
-        """Load a file or DICOM folder in a worker; a folder with several series asks which one first."""
-        path = Path(path)
-        if path.is_dir() and series_uid is None:
-            task = Task(f"Scanning {path.name}", lambda progress=None: list_series(path))
-            task.finished.connect(lambda series: self._series_listed(path, series))
-            task.failed.connect(lambda exc: self._load_error(path, exc))
-            self.tasks.start(task)
-            return
-        task = Task(f"Loading {path.name}", load_for_workbench, path, series_uid=series_uid)
-        task.finished.connect(lambda volume: self._loaded(path, volume))
-        task.failed.connect(lambda exc: self._load_error(path, exc))
-        self.tasks.start(task)
-
-    def _series_listed(self, path: Path, series: list[dict]) -> None:
-        """Open the largest series, asking first only when another one is a real alternative (a stack of at least
-        a quarter of its images, not a localizer); scripted runs never ask."""
-        if not series:
-            self._load_error(path, ValueError("the folder holds no DICOM image series"))
-            return
-        alternatives = [s for s in series[1:] if s["slices"] >= max(2, series[0]["slices"] // 4)]
-        if alternatives and self.ask_for_series:
-            uid = SeriesChooser.ask(str(path), series, self)
-            if uid is None:
-                return
-        else:
-            uid = series[0]["series_uid"]
-        self.open_path(path, series_uid=uid)
-
-    def open_other_series(self) -> None:
-        """Choose another image series of the DICOM folder on show."""
-        volume = self.model.volume
-        folder = Path(volume.metadata.get("source_path", "")) if volume is not None else None
-        if folder is None or not folder.is_dir():
-            self._report_error("The volume on show is not a DICOM folder.", "No other series")
-            return
-        series = list_series(folder)
-        uid = SeriesChooser.ask(str(folder), series, self)
-        if uid is not None:
-            self.open_path(folder, series_uid=uid)
-
-    def _loaded(self, path: Path, volume) -> None:
-        self._add_recent(path)
-        self.model.set_volume(volume)
-        warnings = volume.metadata.get("warnings", [])
-        self.statusBar().showMessage(
-            f"Opened {path.name}" + (f" with {len(warnings)} warning(s): {warnings[0]}" if warnings else ""), 15000)
-        self.volume_loaded.emit(volume)
-
-    def _load_error(self, path: Path, exc: Exception) -> None:
-        message = str(exc) or type(exc).__name__
-        self.load_failed.emit(message)
-        self._report_error(f"Could not open {path}:\n\n{message}", title="Could not open the volume")
-
-    def _report_error(self, message: str, title: str = "Voxelscope") -> None:
-        self.statusBar().showMessage(message.splitlines()[0], 15000)
-        box = QMessageBox(QMessageBox.Warning, title, message, QMessageBox.Ok, self)
-        box.setObjectName("error-dialog")
-        box.open()  # window-modal, does not block the event loop
-
-    def dragEnterEvent(self, event) -> None:  # noqa: N802 - Qt override
-        if event.mimeData().hasUrls():
-            event.acceptProposedAction()
-
-    def dropEvent(self, event) -> None:  # noqa: N802
-        paths = [url.toLocalFile() for url in event.mimeData().urls() if url.isLocalFile()]
-        if paths:
-            self.open_path(paths[0])
-            event.acceptProposedAction()
-
     # -- model changes -----------------------------------------------------------------------------------
-    def _volume_changed(self, volume) -> None:
-        self.image = volume.to_vtk(local=True)
-        self.setWindowTitle(f"Voxelscope - {Path(volume.metadata.get('source_path', '')).name}")
+    def _item_changed(self, item) -> None:
+        self.setWindowTitle(f"Voxelscope - {item.name}")
         self.reset_camera("anterior", all_views=True)
         self.camera_link.flush()  # before the views get the new content, so the reset cannot arrive after it
         for index, view in enumerate(self.views):
             if index < self.model.view_count:
-                view.set_volume(volume, self.image, self.model.view_modes[index], self.model.iso,
-                                self.model.transfer_function)
+                self._show_in(view)
+
+    def _show_in(self, view: RenderView) -> None:
+        """Give a view the item on show, with the model's isovalue and transfer function and the view's mode."""
+        model = self.model
+        inputs = view_inputs(model.item, iso=model.iso if model.volume is not None else None)
+        inputs.transfer_function = model.transfer_function or inputs.transfer_function
+        view.show_item(inputs, model.view_modes[view.index], model.view_options[view.index])
+        view.pipeline.set_overlays([item for item in model.scene if item is not model.item])
+
+    def _volume_changed(self, volume) -> None:
         for view in self.slice_views.values():
             view.set_volume(volume, self.model.cursor, self.model.window, self.model.level)
+        self._overlay_cache.clear()
+        self._update_slice_overlays()
 
-    def _view_mode_changed(self, index: int, mode: str) -> None:
+    def _view_mode_changed(self, index: int, mode: str, options: dict) -> None:
         view = self.views[index]
-        if view.volume is None and self.model.volume is not None and index < self.model.view_count:
-            view.set_volume(self.model.volume, self.image, mode, self.model.iso, self.model.transfer_function)
+        if view.item is None and self.model.item is not None and index < self.model.view_count:
+            self._show_in(view)
         else:
-            view.set_mode(mode)
+            view.set_mode(mode, self.model.view_options[index])
         self.settings.setValue("modes", ",".join(self.model.view_modes))
 
     def _apply_layout(self, layout: str) -> None:
@@ -310,26 +259,23 @@ class MainWindow(QMainWindow):
             view.setVisible(visible)
             if visible:
                 self.grid.addWidget(view, index // columns, index % columns)
-                if self.model.volume is not None and (view.volume is not self.model.volume
-                                                      or view.mode != self.model.view_modes[index]):
-                    view.set_volume(self.model.volume, self.image, self.model.view_modes[index], self.model.iso,
-                                    self.model.transfer_function)
+                if self.model.item is not None and (view.item is not self.model.item
+                                                    or view.mode != self.model.view_modes[index]):
+                    self._show_in(view)
         if layout in getattr(self, "layout_actions", {}):
             self.layout_actions[layout].setChecked(True)
         self.settings.setValue("layout", layout)
 
     def _each_visible(self, action) -> None:
         for view in self.views[: self.model.view_count]:
-            if view.volume is not None:
+            if view.item is not None:
                 action(view)
 
     def _iso_preview(self, iso: float) -> None:
-        for view in self.views[: self.model.view_count]:
-            if view.volume is not None and get_mode(view.mode).kind == "surface":
-                view.set_iso(iso, preview=True)
+        self._each_visible(lambda view: view.set_iso(iso, preview=True))
 
     def _cursor_picked(self, point) -> None:
-        if self.model.volume is not None:
+        if self.model.base_volume is not None:
             self.model.set_cursor(point)
 
     def _set_active_view(self, index: int) -> None:
@@ -340,12 +286,12 @@ class MainWindow(QMainWindow):
     # -- cameras ----------------------------------------------------------------------------------------------
     def reset_camera(self, side: str = "anterior", *, all_views: bool = False) -> None:
         """Look at the volume from a standard side, the whole box in view (every view following the active one)."""
-        volume = self.model.volume
-        if volume is None:
+        item = self.model.item
+        if item is None:
             return
         view = self.views[self.active_view]
         width, height = view.plotter.ren_win.GetSize()
-        camera = default_camera(volume, view=side, aspect=max(width, 1) / max(height, 1),
+        camera = default_camera(item, view=side, aspect=max(width, 1) / max(height, 1),
                                 parallel=self.parallel_action.isChecked())
         targets = self.views if all_views else self.camera_link.views_following(view)
         for target in targets:
@@ -367,7 +313,7 @@ class MainWindow(QMainWindow):
     def _camera_moved(self, source) -> None:
         targets = self.views if source is None else self.camera_link.views_following(source)
         for view in targets:
-            if view.isVisible() and view.volume is not None:
+            if view.isVisible() and view.item is not None:
                 view.camera_moved()
 
     # -- readiness (scripting and tests) -----------------------------------------------------------------------
@@ -377,93 +323,8 @@ class MainWindow(QMainWindow):
 
     def views_ready(self) -> bool:
         visible = self.views[: self.model.view_count]
-        return (self.model.volume is not None and not self.camera_link.pending
+        return (self.model.item is not None and not self.camera_link.pending
                 and all(view.is_ready for view in visible))
-
-    # -- export and screenshots --------------------------------------------------------------------------------
-    def _surface_view(self) -> RenderView | None:
-        active = self.views[self.active_view]
-        if active.isVisible() and active.current_surface() is not None:
-            return active
-        for view in self.views[: self.model.view_count]:
-            if view.current_surface() is not None:
-                return view
-        return None
-
-    def export_mesh(self) -> None:
-        """Export the surface of the active view (or the first surface view) with its JSON sidecar."""
-        view = self._surface_view()
-        if view is None:
-            self._report_error("No view shows a finished surface. Switch a view to a surface mode (for example "
-                               "flying-edges) and wait for it to be built, then export.", "Nothing to export")
-            return
-        path, _ = QFileDialog.getSaveFileName(self, "Export mesh", self._last_folder(), MESH_FILTER)
-        if not path:
-            return
-        path = Path(path)
-        if path.suffix.lower() not in (".stl", ".ply", ".obj", ".vtp"):
-            path = path.with_suffix(".stl")
-        # The file dialog confirmed replacing the mesh file itself; the sidecar is asked about separately.
-        overwrite = path.exists()
-        side = sidecar_path(path)
-        if side.exists() and not self._confirm(f"{side.name} already exists. Replace it?"):
-            return
-        overwrite = overwrite or side.exists()
-        options = ExportOptionsDialog.ask(str(path), self)
-        if options is None:
-            return
-        close_edges = options.get("close_edges", False)
-        volume, result = self.model.volume, None if close_edges else view.current_surface()
-        task = Task(f"Exporting {path.name}", export_mesh, volume, path, method=view.mode, iso=view.iso,
-                    coordinates=options["coordinates"], cleanup=options["cleanup"], close_edges=close_edges,
-                    overwrite=overwrite, result=result)
-        task.finished.connect(lambda export: self.statusBar().showMessage(
-            f"Wrote {export.paths[0]} ({export.written['triangles']:,} triangles, {options['coordinates']} mm) and its "
-            f"sidecar", 15000))
-        task.failed.connect(lambda exc: self._report_error(f"Could not export {path}:\n\n{exc}", "Export failed"))
-        self.tasks.start(task)
-
-    def _confirm(self, question: str) -> bool:
-        return QMessageBox.question(self, "Voxelscope", question) == QMessageBox.Yes
-
-    def grab_views(self) -> np.ndarray:
-        """All visible views in their grid as one ``(h, w, 3)`` uint8 image."""
-        rows, columns = LAYOUTS[self.model.layout]
-        captures = [view.capture() for view in self.views[: rows * columns]]
-        height = max(c.shape[0] for c in captures)
-        width = max(c.shape[1] for c in captures)
-        canvas = np.zeros((rows * height, columns * width, 3), dtype=np.uint8)
-        for index, capture in enumerate(captures):
-            r, c = divmod(index, columns)
-            canvas[r * height: r * height + capture.shape[0], c * width: c * width + capture.shape[1]] = capture
-        return canvas
-
-    def grab_window(self) -> np.ndarray:
-        """The whole window (controls, views, slices) as ``(h, w, 3)`` uint8."""
-        from qtpy.QtGui import QImage
-
-        image = self.grab().toImage().convertToFormat(QImage.Format_RGB888)
-        width, height = image.width(), image.height()
-        buffer = np.frombuffer(image.constBits(), dtype=np.uint8, count=image.sizeInBytes())
-        return buffer.reshape(height, image.bytesPerLine())[:, : width * 3].reshape(height, width, 3).copy()
-
-    def save_view_screenshot(self) -> None:
-        self._save_png(lambda: self.views[self.active_view].capture(), "Save view screenshot")
-
-    def save_grid_screenshot(self) -> None:
-        self._save_png(self.grab_views, "Save screenshot of all views")
-
-    def _save_png(self, grab, title: str) -> None:
-        path, _ = QFileDialog.getSaveFileName(self, title, self._last_folder(), "PNG image (*.png)")
-        if not path:
-            return
-        path = Path(path) if path.lower().endswith(".png") else Path(path + ".png")
-        try:
-            write_png(grab(), path, overwrite=path.exists())  # the dialog asked before replacing
-        except (OSError, ValueError, FileExistsRefusal) as exc:
-            self._report_error(f"Could not save {path}:\n\n{exc}")
-            return
-        self.statusBar().showMessage(f"Saved {path}", 10000)
 
     # -- progress ------------------------------------------------------------------------------------------------
     def _task_started(self, task: Task) -> None:
@@ -518,32 +379,8 @@ class MainWindow(QMainWindow):
                 continue
             self.model.view_modes[index] = mode
         for index, view in enumerate(self.views):
-            view.set_mode(self.model.view_modes[index])
+            view.mode_box.set_current(self.model.view_modes[index])
         self._refresh_recent_menu()
-
-    def _recent(self) -> list[str]:
-        value = self.settings.value("recent", [])
-        if isinstance(value, str):
-            value = [value]
-        return [str(v) for v in (value or [])]
-
-    def _add_recent(self, path: Path) -> None:
-        recent = [str(path)] + [p for p in self._recent() if p != str(path)]
-        self.settings.setValue("recent", recent[:MAX_RECENT])
-        self.settings.setValue("last_folder", str(path.parent if path.is_file() else path))
-        self._refresh_recent_menu()
-
-    def _refresh_recent_menu(self) -> None:
-        self.recent_menu.clear()
-        recent = self._recent()
-        for path in recent:
-            action = QAction(path, self)
-            action.triggered.connect(lambda _=False, p=path: self.open_path(p))
-            self.recent_menu.addAction(action)
-        self.recent_menu.setEnabled(bool(recent))
-
-    def _last_folder(self) -> str:
-        return str(self.settings.value("last_folder", str(Path.home())))
 
     def closeEvent(self, event) -> None:  # noqa: N802
         self.settings.setValue("geometry", self.saveGeometry())

@@ -86,6 +86,7 @@ class SliceView(QWidget):
         self.window, self.level = 400.0, 40.0
         self._image: QImage | None = None
         self._pixels: np.ndarray | None = None
+        self.overlays: list[tuple[Volume, str]] = []  # fields on this volume's grid and their roles
         self._axes: dict = {}
         self._slice = 0
         self._hover = ""
@@ -110,6 +111,12 @@ class SliceView(QWidget):
             self._rebuild_image()
         self.update()
 
+    def set_overlays(self, overlays: list[tuple[Volume, str]]) -> None:
+        """Fields to draw over the slices, each ``(volume on this view's grid, role)`` (see :mod:`app.overlays`)."""
+        self.overlays = list(overlays)
+        self._rebuild_image()
+        self.update()
+
     def set_window_level(self, window: float, level: float) -> None:
         self.window, self.level = window, level
         self._rebuild_image()
@@ -123,8 +130,19 @@ class SliceView(QWidget):
         grey = np.clip((self._pixels.astype(np.float32) - low) / self.window * 255.0, 0, 255).astype(np.uint8)
         grey = np.ascontiguousarray(grey)
         height, width = grey.shape
-        self._grey = grey  # QImage does not own the buffer
-        self._image = QImage(grey.data, width, height, width, QImage.Format_Grayscale8)
+        if not self.overlays:
+            self._grey = grey  # QImage does not own the buffer
+            self._image = QImage(grey.data, width, height, width, QImage.Format_Grayscale8)
+            return
+        from app.overlays import overlay_rgba
+
+        rgb = np.repeat(grey[..., None].astype(np.float32) / 255.0, 3, axis=2)
+        for volume, role in self.overlays:
+            values, _ = slice_image(volume, self.plane, self._slice)
+            rgba = overlay_rgba(values, role)
+            rgb = rgb * (1.0 - rgba[..., 3:4]) + rgba[..., :3] * rgba[..., 3:4]
+        self._grey = np.ascontiguousarray(np.clip(rgb * 255.0 + 0.5, 0, 255).astype(np.uint8))
+        self._image = QImage(self._grey.data, width, height, 3 * width, QImage.Format_RGB888)
 
     def _pixel_size_mm(self) -> tuple[float, float]:
         spacing = self.volume.spacing

@@ -14,7 +14,7 @@ from typing import Any, Callable
 
 from qtpy.QtCore import QObject, QRunnable, QThreadPool, Signal
 
-from algorithms._progress import OperationCancelled
+from algorithms.common.progress import OperationCancelled
 
 
 class Task(QObject):
@@ -105,3 +105,19 @@ class TaskRunner(QObject):
 
     def wait(self, milliseconds: int = 30000) -> bool:
         return self.pool.waitForDone(milliseconds)
+
+
+class QtJobRunner:
+    """The view pipeline's job runner in the window (see :class:`app.pipeline.jobs.JobRunner`): each job becomes a
+    :class:`Task` on the workbench's thread pool, so it shows in the status bar with progress and Cancel, and its
+    callbacks arrive on the GUI thread."""
+
+    def __init__(self, tasks: TaskRunner) -> None:
+        self.tasks = tasks
+
+    def submit(self, label: str, work, *, done, failed, cancelled) -> Task:
+        task = Task(label, work)
+        task.finished.connect(done)
+        task.failed.connect(failed)
+        task.cancelled.connect(cancelled)
+        return self.tasks.start(task)

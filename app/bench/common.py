@@ -1,61 +1,53 @@
-"""Shared benchmark machinery: timing, machine description, CSV and plots."""
+"""Shared benchmark machinery: timing (from :mod:`app.pipeline.timing`), VTK volume mappers in an off-screen scene,
+the machine description, CSV and plots."""
 
 from __future__ import annotations
 
 import csv
-import gc
 import json
 import os
 import platform
-import statistics
 import time
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Iterable, Sequence
+
+from algorithms.common.camera import Camera
+
+from ..pipeline import FrameTimes, OffscreenScene, Timing, time_call  # noqa: F401 - re-exported for the benchmarks
+from ..pipeline.props import volume_prop
 
 
-@dataclass
-class Timing:
-    """Wall-clock seconds of repeated calls (after warm-up calls that are not counted)."""
-
-    samples: list[float]
-
-    @property
-    def median(self) -> float:
-        return statistics.median(self.samples)
-
-    @property
-    def mean(self) -> float:
-        return statistics.fmean(self.samples)
-
-    @property
-    def minimum(self) -> float:
-        return min(self.samples)
-
-    @property
-    def p95(self) -> float:
-        ordered = sorted(self.samples)
-        return ordered[min(len(ordered) - 1, int(round(0.95 * (len(ordered) - 1))))]
-
-    @property
-    def weighted_mean(self) -> float:
-        """Frame-time-weighted mean, sum(t^2) / sum(t): each frame weighted by how long it stays on screen (source 001)."""
-        total = sum(self.samples)
-        return sum(t * t for t in self.samples) / total if total > 0 else 0.0
+def vtk_mapper_scene(volume, function, mapper: str, size, *, sample_distance: float | None = None,
+                     shading: bool | None = False, camera: Camera | None = None) -> OffscreenScene:
+    """An off-screen scene holding ``volume`` drawn by VTK's ``"gpu"`` or ``"cpu"`` ray caster (the same prop every
+    view uses), its camera set when given. The caller closes it."""
+    width, height = (size, size) if isinstance(size, int) else size
+    scene = OffscreenScene((width, height))
+    scene.add(volume_prop(volume, function, mapper=mapper, sample_distance=sample_distance, shading=shading))
+    if camera is not None:
+        scene.set_camera(camera)
+    return scene
 
 
-def time_call(function: Callable[[], Any], *, repeats: int = 5, warmup: int = 1) -> tuple[Timing, Any]:
-    """Call ``function`` ``warmup`` times untimed, then ``repeats`` times timed; returns timings and the last result."""
-    result = None
-    for _ in range(warmup):
-        result = function()
-    samples = []
-    for _ in range(repeats):
-        gc.collect()
-        start = time.perf_counter()
-        result = function()
-        samples.append(time.perf_counter() - start)
-    return Timing(samples), result
+def time_vtk_mapper(volume, function, mapper: str, world_cameras: Sequence[Camera], size, *,
+                    sample_distance: float | None = None, shading: bool | None = False) -> dict[str, Any]:
+    """Set-up (prop, first render and its read-back at the first camera) and every frame of ``world_cameras``
+    (``Render`` plus ``WaitForCompletion``) of a VTK volume mapper; ``times`` is a :class:`FrameTimes` and ``start``
+    the first frame as ``(h, w, 3)`` uint8."""
+    start = time.perf_counter()
+    scene = vtk_mapper_scene(volume, function, mapper, size, sample_distance=sample_distance, shading=shading,
+                             camera=world_cameras[0])
+    try:
+        scene.render()
+        first = scene.capture()
+        setup = time.perf_counter() - start
+        frames = []
+        for camera in world_cameras:
+            scene.set_camera(camera)
+            frames.append(scene.render())
+    finally:
+        scene.close()
+    return {"times": FrameTimes(setup, frames), "start": first}
 
 
 def machine_info() -> dict[str, Any]:

@@ -38,8 +38,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from algorithms._progress import ProgressCallback, report
-from algorithms._vtk import image_from_array, run_algorithm
+from algorithms.common.progress import ProgressCallback, report
+from algorithms.common.vtk_bridge import image_from_array, run_algorithm
 
 from .common import machine_info, pyplot, save_figure, time_call, write_csv, write_json
 
@@ -92,7 +92,7 @@ def _cases(quick: bool):
 _COMPILE_PROBE = """
 import sys, time
 import numpy as np
-from algorithms.marching_cubes import marching_cubes
+from algorithms.surfaces.marching_cubes import marching_cubes
 volume = (np.indices((12, 13, 14)).sum(axis=0) % 7).astype(sys.argv[1])
 start = time.perf_counter()
 marching_cubes(volume, 3.5, normals=True)
@@ -127,7 +127,7 @@ def _repeats(voxels: int, quick: bool) -> int:
 
 
 def _ours(array, iso, spacing, origin, normals):
-    from algorithms.marching_cubes import marching_cubes
+    from algorithms.surfaces.marching_cubes import marching_cubes
 
     def extract():
         return marching_cubes(array, iso, spacing=spacing, origin=origin, normals=normals)
@@ -180,7 +180,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     """Time the three extractors on every case; write CSV, a log-log plot and JSON to ``out_dir``."""
     from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D, vtkMarchingCubes
 
-    ours_module = importlib.import_module("algorithms.marching_cubes")  # the module, not the function
+    ours_module = importlib.import_module("algorithms.surfaces.marching_cubes.kernels")
 
     from ..vtk_setup import configure_vtk, set_smp_backend, smp_backend
 
@@ -230,7 +230,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     plot_path = _plot(rows, out_dir / "marching_cubes.png")
     info = machine_info()
     info["vtk_smp_backend"] = "varies per row (see backend); restored to " + initial_backend
-    kernels = ("_classify_layers", "_fill_slabs", "_vertex_attributes", "_merge_on_samples")
+    kernels = ("classify_layers", "fill_slabs", "vertex_attributes", "merge_on_samples")
     json_path = write_json(out_dir / "marching_cubes.json", {
         "benchmark": "marching-cubes",
         "quick": quick,

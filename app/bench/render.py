@@ -8,10 +8,10 @@ experiment here, on the full CT head phantom (256 x 256 x 108, 0.9375 x 0.9375 x
 
 - The camera orbits 360 degrees around the head in ``FRAMES`` steps while its elevation wobbles by
   +-``WOBBLE_DEGREES`` (two periods per turn).
-- Renderers: :class:`algorithms.raymarch.RaymarchRenderer` with each lighting model (``emission``, ``phong``,
+- Renderers: :class:`algorithms.rendering.raymarch.RaymarchRenderer` with each lighting model (``emission``, ``phong``,
   ``scatter``; Phong with the preset's material), ``vtkGPUVolumeRayCastMapper`` (``vtk-gpu``) and
   ``vtkFixedPointVolumeRayCastMapper`` (``vtk-cpu``), each unshaded and shaded, through
-  :func:`app.rendering.volume_prop` in an :class:`app.rendering.OffscreenScene`, plus any entries of
+  :func:`app.bench.common.vtk_mapper_scene` (the props every view uses, off-screen), plus any entries of
   :data:`EXTRA_RENDERERS`. VTK's volume mappers are not built on vtkSMPTools (the fixed-point mapper runs its own
   threads), so VTK's SMP back end does not apply; it is STDThread as in the application.
 - Per renderer: median, mean, weighted mean and 95th percentile frame time, frame rate, set-up time (construction
@@ -37,19 +37,20 @@ from typing import Any, Callable
 
 import numpy as np
 
-from algorithms._progress import ProgressCallback, report
-from algorithms.camera import Camera
-from algorithms.image_metrics import compare_images, difference_heatmap
-from algorithms.raymarch import LIGHTING_MODELS, RaymarchRenderer
-from algorithms.texture_slicing import SlicingRenderer
-from algorithms.transfer import TransferTable
+from algorithms.common.progress import ProgressCallback, report
+from algorithms.common.camera import Camera
+from algorithms.compare.image_metrics import compare_images, difference_heatmap
+from algorithms.rendering.raymarch import LIGHTING_MODELS, RaymarchRenderer
+from algorithms.rendering.texture_slicing import SlicingRenderer
+from algorithms.common.transfer import TransferTable
 
 from ..datasets import ct_head_phantom
-from ..rendering import FrameTimes, OffscreenScene, default_camera, default_sample_distance, volume_prop
+from ..pipeline import FrameTimes, camera_in_frame, default_camera
+from ..pipeline.props import default_sample_distance
 from ..transfer import transfer_function_for
 from ..vtk_setup import configure_vtk
 from . import slicing
-from .common import machine_info, pyplot, save_figure, write_csv, write_json
+from .common import machine_info, pyplot, save_figure, vtk_mapper_scene, write_csv, write_json
 
 PRESET = "ct-bone"
 SIZE, QUICK_SIZE = 512, 256
@@ -57,13 +58,14 @@ FRAMES, QUICK_FRAMES = 36, 6
 WOBBLE_DEGREES = 20.0
 
 #: Extension point: more software renderers for the same fly-around, as ``(name, factory)``. ``factory(volume_array,
-#: spacing, table, *, step)`` builds a renderer with the shared contract (``render(camera, width, height)`` returning
-#: an :class:`algorithms.render_result.RenderResult`, camera in the volume frame); its start frame is compared with
-#: the unshaded ``vtk-gpu``. Texture slicing and shear-warp add themselves here.
+#: spacing, table, *, sample_distance)`` builds a renderer with the shared contract (``render(camera, width,
+#: height)`` returning an :class:`algorithms.common.render_result.RenderResult`, camera in the volume frame); its
+#: start frame is compared with the unshaded ``vtk-gpu``. Texture slicing and shear-warp add themselves here.
 EXTRA_RENDERERS: list[tuple[str, Callable[..., Any]]] = [
     # Texture slicing at its own default: one slice per smallest voxel spacing along the view (issue 7).
-    ("slicing", lambda array, spacing, table, step: SlicingRenderer(array, spacing, table)),
-    ("slicing-axis", lambda array, spacing, table, step: SlicingRenderer(array, spacing, table, mode="axis")),
+    ("slicing", lambda array, spacing, table, sample_distance: SlicingRenderer(array, spacing, table)),
+    ("slicing-axis",
+     lambda array, spacing, table, sample_distance: SlicingRenderer(array, spacing, table, mode="axis")),
 ]
 
 #: Ablation settings of raymarch-emission: name -> (early termination threshold or None, empty-space skipping).
@@ -132,9 +134,8 @@ def _vtk_runner(name: str, volume, function, mapper: str, shading: bool, world_c
                 step: float) -> _Runner:
     """Set-up: the prop, the first render and its read-back; frames: ``Render`` plus ``WaitForCompletion``."""
     start = time.perf_counter()
-    scene = OffscreenScene((size, size))
-    scene.add(volume_prop(volume, function, mapper=mapper, sample_distance=step, shading=shading))
-    scene.set_camera(world_cameras[0])
+    scene = vtk_mapper_scene(volume, function, mapper, size, sample_distance=step, shading=shading,
+                             camera=world_cameras[0])
     scene.render()
     first = scene.capture()
     setup = time.perf_counter() - start
@@ -201,18 +202,17 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     table = function.to_table(volume.value_range)
     step = default_sample_distance(volume)
     world_cameras = fly_around(volume, frames)
-    to_volume = np.linalg.inv(volume.local_to_world)
-    cameras = [camera.transformed(to_volume) for camera in world_cameras]
+    cameras = [camera_in_frame(camera, volume.local_to_world) for camera in world_cameras]
     compile_seconds = _numba_warmup(table)
 
     def raymarcher(**options):
-        return lambda: RaymarchRenderer(volume.array, volume.spacing, table, step=step, **options)
+        return lambda: RaymarchRenderer(volume.array, volume.spacing, table, sample_distance=step, **options)
 
     phong = {"ambient": material.ambient, "diffuse": material.diffuse, "specular": material.specular,
              "specular_power": material.specular_power}
     software = [(f"raymarch-{lighting}", raymarcher(lighting=lighting, **(phong if lighting == "phong" else {})))
                 for lighting in LIGHTING_MODELS]
-    software += [(name, lambda factory=factory: factory(volume.array, volume.spacing, table, step=step))
+    software += [(name, lambda factory=factory: factory(volume.array, volume.spacing, table, sample_distance=step))
                  for name, factory in EXTRA_RENDERERS]
     # The reference of each renderer's start frame: the shaded vtk-gpu for shaded modes, else the unshaded one.
     references = {"raymarch-phong": "vtk-gpu-shaded", "vtk-cpu-shaded": "vtk-gpu-shaded",

@@ -1,7 +1,8 @@
 """Shear-warp benchmark: source 004's tests, and the CT phantom against VTK's ray casters in the same run.
 
-Source 004 (``../shared/seeds/004_cdece38631a9e251.txt``, chapter 6) timed its shear-warp renderer on random
-volumes; the same tests here, with :class:`algorithms.shear_warp.ShearWarpRenderer` at 512 x 512 pixels:
+Source 004 (Tavira Rodríguez de Liébana, *Optimización del renderizado de volumen mediante la técnica
+shear-warping*, 2017, chapter 6) timed its shear-warp renderer on random
+volumes; the same tests here, with :class:`algorithms.rendering.shear_warp.ShearWarpRenderer` at 512 x 512 pixels:
 
 - **Test 1 (volume size)**: random volumes of 128x128x64, 256x256x64, 256x256x128, 256x256x256 and 512x512x128
   voxels (x by y by z) with 100 % non-transparent voxels, ``VOLUMES`` random volumes each
@@ -20,11 +21,11 @@ volumes; the same tests here, with :class:`algorithms.shear_warp.ShearWarpRender
   (``vtk-gpu``, Mesa's llvmpipe without a GPU) with VTK's default sample distance of our renderers (half the
   smallest spacing). Ablations: without the volume's run-length encoding (every voxel visited), without early ray
   termination (which also turns off opaque-pixel skipping), without both; shear-warp shaded (normal grid 128);
-  shear-warp pre-scaled to isotropic 0.9375 mm voxels (``step``). Set-up (classification, encoding; normals with
-  shading) is reported apart from the frame times; so is the first frame (numba's cache load). The start frame is
+  shear-warp pre-scaled to isotropic 0.9375 mm voxels (``resample_spacing``). Set-up (classification, encoding; normals
+  with shading) is reported apart from the frame times; so is the first frame (numba's cache load). The start frame is
   compared with ``vtk-gpu`` (foreground PSNR, SSIM) and a difference heat map is written.
 - **Banding**: the shaded start frame with a coarse (8) and a fine (128) normal grid side by side, and
-  :func:`algorithms.shear_warp.shading_banding` of a shaded sphere for several grids.
+  :func:`algorithms.compare.image_metrics.shading_banding` of a shaded sphere for several grids.
 
 VTK's volume mappers do not use vtkSMPTools (the fixed-point mapper runs its own threads), so VTK's SMP back end
 does not apply to them; it is STDThread as in the application. Frame times are wall-clock seconds of one
@@ -41,26 +42,19 @@ from typing import Any, Callable
 
 import numpy as np
 
-from algorithms._progress import ProgressCallback, report, scaled
-from algorithms.camera import Camera
-from algorithms.image_metrics import compare_images, difference_heatmap
-from algorithms.shear_warp import NormalTable, ShearWarpRenderer, shading_banding
-from algorithms.transfer import TransferTable
+from algorithms.common.progress import ProgressCallback, report, scaled
+from algorithms.common.camera import Camera
+from algorithms.compare.image_metrics import compare_images, difference_heatmap, shading_banding
+from algorithms.rendering.shear_warp import NormalTable, ShearWarpRenderer
+from algorithms.common.transfer import TransferTable
 
 from ..datasets import ct_head_phantom, random_volume, sphere_field
-from ..rendering import (
-    FrameTimes,
-    OffscreenScene,
-    default_camera,
-    default_sample_distance,
-    time_frames,
-    turning_cameras,
-    volume_prop,
-)
+from ..pipeline import FrameTimes, camera_in_frame, default_camera, turning_cameras
+from ..pipeline.props import default_sample_distance
 from ..transfer import transfer_function_for
 from ..volume import Volume
 from ..vtk_setup import configure_vtk
-from .common import machine_info, pyplot, save_figure, write_csv, write_json
+from .common import machine_info, pyplot, save_figure, time_vtk_mapper, write_csv, write_json
 
 SIZE = 512
 #: Test 1 sizes as (x, y, z) voxels, as the source lists them.
@@ -83,7 +77,7 @@ CT_VARIANTS = {
     "shear-warp (no early termination)": {"early_termination": None},
     "shear-warp (no RLE + no early termination)": {"use_rle": False, "early_termination": None},
     "shear-warp shaded": {"shading": True},
-    "shear-warp pre-scaled 0.9375 mm": {"step": 0.9375},
+    "shear-warp pre-scaled 0.9375 mm": {"resample_spacing": 0.9375},
 }
 
 
@@ -102,28 +96,13 @@ def _time_renderer(build: Callable[[], ShearWarpRenderer], cameras: list[Camera]
     first = renderer.render(cameras[0], size, size)
     first_seconds = time.perf_counter() - begin
     results = []
-    frames = time_frames(lambda camera: results.append(renderer.render(camera, size, size)), cameras)
+    frames = []
+    for camera in cameras:
+        tick = time.perf_counter()
+        results.append(renderer.render(camera, size, size))
+        frames.append(time.perf_counter() - tick)
     return {"times": FrameTimes(setup, frames), "first_seconds": first_seconds, "start": first,
             "setup_stats": renderer.setup_stats, "stats": _stats_means(results)}
-
-
-def _time_vtk(volume: Volume, function, mapper: str, world_cameras: list[Camera], size: int, step: float):
-    """Set-up (prop, first render) and every frame of a VTK volume mapper in an off-screen window."""
-    start = time.perf_counter()
-    scene = OffscreenScene((size, size))
-    try:
-        scene.add(volume_prop(volume, function, mapper=mapper, sample_distance=step, shading=False))
-        scene.set_camera(world_cameras[0])
-        scene.render()
-        setup = time.perf_counter() - start
-        first = scene.capture()
-        frames = []
-        for camera in world_cameras:
-            scene.set_camera(camera)
-            frames.append(scene.render())
-    finally:
-        scene.close()
-    return {"times": FrameTimes(setup, frames), "start": first}
 
 
 def _turning_cameras(volume: Volume, frames: int) -> list[Camera]:
@@ -273,11 +252,10 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     table = function.to_table(phantom.value_range)
     step = default_sample_distance(phantom)
     world_cameras = _turning_cameras(phantom, ct_frames)
-    to_volume = np.linalg.inv(phantom.local_to_world)
-    cameras = [camera.transformed(to_volume) for camera in world_cameras]
+    cameras = [camera_in_frame(camera, phantom.local_to_world) for camera in world_cameras]
     runs: dict[str, dict[str, Any]] = {}
     for name, mapper in (("vtk-cpu", "cpu"), ("vtk-gpu", "gpu")):
-        runs[name] = _time_vtk(phantom, function, mapper, world_cameras, SIZE, step)
+        runs[name] = time_vtk_mapper(phantom, function, mapper, world_cameras, SIZE, sample_distance=step)
         report(next_progress(), 1.0)
     material = {"ambient": preset_shading.ambient, "diffuse": preset_shading.diffuse,
                 "specular": preset_shading.specular, "specular_power": preset_shading.specular_power}
@@ -380,7 +358,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
             "VTK's volume mappers do not use vtkSMPTools; the fixed-point mapper threads on its own.",
             "vtk-gpu runs on Mesa's llvmpipe software rasteriser without a GPU.",
             "PSNR is over the foreground of the start frame against vtk-gpu; shear-warp's remaining difference is "
-            "its two bilinear resamplings and pre-classification (see algorithms.shear_warp).",
+            "its two bilinear resamplings and pre-classification (see algorithms.rendering.shear_warp).",
         ],
     }))
     report(progress, 1.0)

@@ -6,13 +6,13 @@ quality; source 002 (2.4.3) warns that compositing in an 8-bit framebuffer loses
 and that switching between axis-aligned stacks flickers. Measured here, on the CT head phantom (full size,
 256 x 256 x 108, 0.9375 x 0.9375 x 2 mm) at 512 x 512 pixels with the ``ct-bone`` preset and no shading:
 
-1. Frame time against the number of view-aligned slices (64, 128, 256, 512 and the default of one slice per
-   smallest spacing) for the rasterising path (:class:`algorithms.texture_slicing.SliceStackProp` in VTK's OpenGL
-   renderer: slice geometry and textures on the CPU, then the draw, reported apart), the float compositing path
-   and its 8-bit emulation (:class:`algorithms.texture_slicing.SlicingRenderer`), next to
-   ``vtkGPUVolumeRayCastMapper`` and ``vtkFixedPointVolumeRayCastMapper`` (medians over repeats, ratios in the
-   same run). The volume mappers are not built on vtkSMPTools, so VTK's SMP back end does not apply to them (the
-   fixed-point mapper runs its own threads).
+1. Frame time against the number of view-aligned slices (64, 128, 256, 512 and the default of one slice per smallest
+   spacing) for the rasterising path (:class:`algorithms.rendering.texture_slicing.SliceStackProp` in VTK's OpenGL
+   renderer: slice geometry and textures on the CPU, then the draw, reported apart), the float compositing path and its
+   8-bit emulation (:class:`algorithms.rendering.texture_slicing.SlicingRenderer`), next to
+   ``vtkGPUVolumeRayCastMapper`` and ``vtkFixedPointVolumeRayCastMapper`` (medians over repeats, ratios in the same
+   run). The volume mappers are not built on vtkSMPTools, so VTK's SMP back end does not apply to them (the fixed-point
+   mapper runs its own threads).
 2. Foreground PSNR (and SSIM) of each path against ``vtk-gpu`` at its default sample distance (half the smallest
    spacing), as the slices increase; also with ``ct-soft-tissue``, whose low opacity per slice is where source
    002's 8-bit error shows (``ct-bone`` turns opaque within a few slices).
@@ -32,14 +32,16 @@ from pathlib import Path
 
 import numpy as np
 
-from algorithms._progress import ProgressCallback, report, scaled
-from algorithms.image_metrics import compare_images, difference_heatmap, difference_image, psnr_foreground
-from algorithms.texture_slicing import SliceStackProp, SlicingRenderer
+from algorithms.common.progress import ProgressCallback, report, scaled
+from algorithms.compare.image_metrics import compare_images, difference_heatmap, difference_image, psnr_foreground
+from algorithms.rendering.texture_slicing import SliceStackProp, SlicingRenderer
 
 from ..datasets import ct_head_phantom
-from ..rendering import OffscreenScene, default_camera, default_sample_distance, render_vtk_volume, volume_prop
+from ..pipeline import OffscreenScene, camera_in_frame, default_camera
+from ..pipeline.offscreen import render_vtk_volume
+from ..pipeline.props import default_sample_distance
 from ..transfer import transfer_function_for
-from .common import Timing, machine_info, pyplot, save_figure, time_call, write_csv, write_json
+from .common import Timing, machine_info, vtk_mapper_scene, pyplot, save_figure, time_call, write_csv, write_json
 
 PRESET = "ct-bone"
 #: A preset of low opacity per slice, for the 8-bit compositing error (image quality only).
@@ -57,23 +59,12 @@ FRAME_HEATMAP_VMAX = 0.25
 SWITCH_HEATMAP_VMAX = 0.1
 
 
-def _volume_camera(volume, world_camera):
-    return world_camera.transformed(np.linalg.inv(volume.local_to_world))
-
-
-def _vtk_scene(volume, function, mapper: str, size: int, world_camera) -> OffscreenScene:
-    scene = OffscreenScene((size, size))
-    scene.add(volume_prop(volume, function, mapper=mapper, shading=False))
-    scene.set_camera(world_camera)
-    return scene
-
-
 def _time_vtk(volume, function, size: int, world_camera, repeats: int) -> tuple[dict[str, float], np.ndarray]:
     """Median frame seconds of vtk-gpu and vtk-cpu (set-up excluded), and the vtk-gpu frame."""
     seconds = {}
     reference = None
     for mapper in ("gpu", "cpu"):
-        scene = _vtk_scene(volume, function, mapper, size, world_camera)
+        scene = vtk_mapper_scene(volume, function, mapper, size, camera=world_camera)
         try:
             timing, _ = time_call(scene.render, repeats=repeats, warmup=1)
             seconds[mapper] = timing.median
@@ -95,7 +86,7 @@ def _gl_frame(stack: SliceStackProp, scene: OffscreenScene, camera, size: int, p
 def _slice_count_runs(volume, table, world_camera, counts, size, reference, *, preset: str, repeats: int,
                       warmup: int, progress: ProgressCallback):
     """Frame times and image quality against ``reference`` of the GL, float and uint8 paths for every slice count."""
-    camera = _volume_camera(volume, world_camera)
+    camera = camera_in_frame(world_camera, volume.local_to_world)
     time_rows, quality_rows, frames = [], [], {}
     for step, (label, count) in enumerate(counts):
         for precision in ("float", "uint8"):
@@ -131,13 +122,13 @@ def _switch_sequence(volume, function, table, size, azimuths, progress: Progress
     axis_renderer = SlicingRenderer(volume.array, volume.spacing, table, mode="axis")
     view_renderer = SlicingRenderer(volume.array, volume.spacing, table)
     first = default_camera(volume, azimuth=float(azimuths[0]), elevation=0.0)
-    scene = _vtk_scene(volume, function, "gpu", size, first)
+    scene = vtk_mapper_scene(volume, function, "gpu", size, camera=first)
     frames = {"axis": [], "view": [], "vtk-gpu": []}
     axes = []
     try:
         for index, azimuth in enumerate(azimuths):
             world_camera = default_camera(volume, azimuth=float(azimuth), elevation=0.0)
-            camera = _volume_camera(volume, world_camera)
+            camera = camera_in_frame(world_camera, volume.local_to_world)
             result = axis_renderer.render(camera, size, size)
             axes.append(int(result.stats["axis"]))
             frames["axis"].append(result.to_uint8())
@@ -256,7 +247,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     function = transfer_function_for(volume, PRESET, shading=False)
     table = function.to_table(volume.value_range)
     world_camera = default_camera(volume, azimuth=AZIMUTH, elevation=ELEVATION)
-    camera = _volume_camera(volume, world_camera)
+    camera = camera_in_frame(world_camera, volume.local_to_world)
     default_count = len(SlicingRenderer(volume.array, volume.spacing, table).slices_for(camera))
     runs = [(str(count), count) for count in counts] + [("default", default_count)]
 

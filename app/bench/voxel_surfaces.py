@@ -4,12 +4,12 @@ For every family of :data:`app.datasets.FAMILIES` (worst case, spheres, pillars 
 20/50 % density) and cubic models of ``n`` voxels per side, and for real data (Colin 27 at a few thresholds and an
 atlas-like label volume made from it), this benchmark builds the same surface four ways:
 
-- ``baseline``: :func:`algorithms.voxel_faces.voxel_faces`, 4 vertices and 6 indices per face (source "Def");
-- ``tower``: :func:`algorithms.tower.tower_strips`, strips without indices (source "Tow");
-- ``hybrid``: :func:`algorithms.tower.hybrid` with L = 10 (source "Hyb");
+- ``baseline``: :func:`algorithms.surfaces.voxel_faces.voxel_faces`, 4 vertices and 6 indices per face (source "Def");
+- ``tower``: :func:`algorithms.surfaces.tower.tower_strips`, strips without indices (source "Tow");
+- ``hybrid``: :func:`algorithms.surfaces.tower.hybrid` with L = 10 (source "Hyb");
 - ``vtkStripper``: VTK's strip generator on the baseline triangles after merging coincident points
-  (:func:`algorithms.voxel_surface_checks.vtk_stripper`), counted with its shared point list and indices and
-  de-indexed (see :func:`algorithms.voxel_surface_checks.stripper_memory`);
+  (:func:`algorithms.references.vtk_surfaces.vtk_stripper`), counted with its shared point list and indices and
+  de-indexed (see :func:`algorithms.compare.voxel_surfaces.stripper_memory`);
 
 and measures:
 
@@ -23,7 +23,7 @@ and measures:
 - **extraction time** (median of ``timing_repeats``, VTK's of ``vtk_timing_repeats``) of baseline, tower, hybrid
   (from the volume), vtkStripper
   (point merge + stripper, from the baseline's triangles) and VTK's own voxel surface
-  (:func:`algorithms.voxel_surface_checks.vtk_threshold_surface`: ``vtkThreshold`` + ``vtkDataSetSurfaceFilter``
+  (:func:`algorithms.references.vtk_surfaces.vtk_threshold_surface`: ``vtkThreshold`` + ``vtkDataSetSurfaceFilter``
   on a cell-data image built beforehand), the VTK ones with the SMP back end both "STDThread" and "Sequential".
 
 Limits, because the machine has 2 cores and 24 GB shared with others and renders with Mesa's llvmpipe:
@@ -39,7 +39,8 @@ Everything skipped is listed in the JSON. Nothing is asserted: the numbers are w
 
 References
 ----------
-Source 000 (``../shared/seeds/000_d719b521960fa927.txt``), sections 8.2 (datasets) and 9 (experiments).
+Source 000 (the Dutch BSc thesis on voxel models as triangle strips, see ``docs/references.md``), sections 8.2
+(datasets) and 9 (experiments).
 """
 
 from __future__ import annotations
@@ -51,20 +52,16 @@ from typing import Any, Callable
 import numpy as np
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper
 
-from algorithms._progress import ProgressCallback, report, scaled
-from algorithms._vtk import image_from_array
-from algorithms.tower import hybrid, tower_strips
-from algorithms.voxel_faces import solid_mask, voxel_faces
-from algorithms.voxel_surface_checks import (
-    memory_usage,
-    stripper_memory,
-    vtk_stripper,
-    vtk_threshold_surface,
-)
+from algorithms.common.progress import ProgressCallback, report, scaled
+from algorithms.common.vtk_bridge import image_from_array
+from algorithms.surfaces.tower import hybrid, tower_strips
+from algorithms.surfaces.voxel_faces import solid_mask, voxel_faces
+from algorithms.compare.voxel_surfaces import memory_usage, stripper_memory
+from algorithms.references.vtk_surfaces import vtk_stripper, vtk_threshold_surface
 
 from .. import datasets
 from ..io import load_volume
-from ..rendering import OffscreenScene
+from ..pipeline import OffscreenScene
 from ..vtk_setup import configure_vtk, set_smp_backend, smp_backend
 from .common import Timing, machine_info, pyplot, save_figure, time_call, write_csv, write_json
 

@@ -1,18 +1,23 @@
-"""Reading and writing volumes: one entry point, :func:`load_volume`, dispatching on what the path is.
+"""Reading and writing volumes and meshes: one entry point each, :func:`load_volume` and :func:`load_mesh`.
 
 ============================  ==========================================================
 path                          reader
 ============================  ==========================================================
 folder                        DICOM series (largest stack, or ``series_uid``)
-``*.dcm`` / DICOM file        multi-frame DICOM file, or the series of its folder
-``*.nii``, ``*.nii.gz``       NIfTI (nibabel), RAS converted to LPS
-``*.hdr``, ``*.img``          Analyze 7.5 (nibabel)
-``*.mnc``                     MINC 1 (nibabel; MINC 2 needs h5py)
-``*.nrrd``, ``*.nhdr``        NRRD
-``*.mha``, ``*.mhd``          MetaImage (VTK reader, ITK geometry)
-``*.vti``, ``*.vtk``          VTK image (XML or legacy)
+``*.dcm`` / DICOM file        multi-frame or MOSAIC DICOM file, or the series of its folder
+``*.nii``, ``*.nii.gz``       NIfTI (nibabel headers), RAS converted to LPS
+``*.hdr``, ``*.img``          Analyze 7.5 or NIfTI pair (nibabel)
+``*.mnc``                     MINC 1 and 2 (nibabel; MINC 2 through h5py)
+``*.nrrd``, ``*.nhdr``        NRRD (pynrrd headers)
+``*.mha``, ``*.mhd``          MetaImage (header checked here, pixels by VTK, ITK geometry)
+``*.vti``, ``*.vtk``          VTK image (XML or legacy; header checked before VTK reads it)
 anything with ``raw=``        raw voxels with an explicit :class:`RawLayout`
+``*.stl .obj .ply .vtp .off``  surface meshes, optionally gzipped: :func:`load_mesh` (:mod:`app.io.meshes`)
 ============================  ==========================================================
+
+The contract of every reader: a damaged, truncated or hostile file gives a :class:`VolumeReadError` (a
+:class:`MeshReadError` for meshes) whose message is one line naming the file, what is wrong and what to do;
+never a traceback, a crash, a hang or a runaway allocation.
 """
 
 from __future__ import annotations
@@ -21,11 +26,12 @@ from pathlib import Path
 from typing import Callable
 
 from ..volume import Volume, right_handed
-from .dicom import is_dicom_file, list_series, read_dicom_series, read_multiframe, write_dicom_series
+from .dicom import is_dicom_file, list_series, read_dicom_file, read_dicom_series, read_multiframe, write_dicom_series
 from .errors import (
     CorruptFileError,
     DicomSeriesError,
     FileExistsRefusal,
+    MeshReadError,
     MissingDecoderError,
     UnsupportedFormatError,
     VolumeReadError,
@@ -43,11 +49,14 @@ from .formats import (
     write_nrrd,
     write_vti,
 )
+from .meshes import MESH_SUFFIXES_READ, Mesh, describe_mesh, is_mesh_path, load_mesh
+from .safety import one_line, require_regular_file
 
 __all__ = [
     "load_volume", "save_volume", "volume_format", "list_series", "write_dicom_series", "RawLayout",
     "VolumeReadError", "UnsupportedFormatError", "CorruptFileError", "DicomSeriesError", "MissingDecoderError",
     "VolumeWriteError", "FileExistsRefusal", "READABLE_SUFFIXES", "WRITABLE_SUFFIXES",
+    "Mesh", "MeshReadError", "MESH_SUFFIXES_READ", "describe_mesh", "is_mesh_path", "load_mesh", "read_multiframe",
 ]
 
 READABLE_SUFFIXES = (".dcm", ".nii", ".nii.gz", ".hdr", ".img", ".mnc", ".nrrd", ".nhdr", ".mha", ".mhd", ".vti", ".vtk")
@@ -77,6 +86,9 @@ def volume_format(path) -> str:
         return formats[suffix]
     if is_dicom_file(path):
         return "DICOM"
+    if is_mesh_path(path):
+        raise UnsupportedFormatError(path, "this is a surface mesh, not a volume",
+                                     "Open it as a mesh (load_mesh; 'voxelscope info' reads meshes too)")
     raise UnsupportedFormatError(
         path, f"unknown volume format '{suffix or path.name}'",
         "Voxelscope reads DICOM folders and files, NIfTI (.nii, .nii.gz), Analyze (.hdr/.img), MINC (.mnc), "
@@ -91,53 +103,82 @@ def load_volume(
     series_uid: str | None = None,
     raw: RawLayout | None = None,
     irregular: str = "resample",
+    allow_gaps: bool = False,
+    volume_index: int | None = None,
     progress: Callable[[float], None] | None = None,
 ) -> Volume:
     """Read the volume at ``path`` (file or DICOM folder) into a :class:`Volume` in LPS millimetres.
 
-    Raises a :class:`VolumeReadError` subclass whose message names the file, the problem and what to do.
+    Parameters
+    ----------
+    series_uid : str, optional
+        DICOM SeriesInstanceUID to load (default: the largest stack). CLI: ``--series UID``.
+    raw : RawLayout, optional
+        Layout of a headerless raw file (dimensions, type, spacing, byte order, header size). CLI: ``--raw-*``.
+    irregular : {"resample", "error"}
+        DICOM slices missing or unevenly spaced: resample (default) or refuse. CLI: ``--strict-spacing``.
+    allow_gaps : bool
+        Interpolate across DICOM gaps of more than two missing slices (refused by default). CLI: ``--allow-gaps``.
+    volume_index : int, optional
+        Which volume of a DICOM series holding several (echoes, time points, MOSAIC files), from 0; default the
+        first, with a warning listing the others. CLI: ``--volume N``.
+    progress : callable, optional
+        Called with a fraction in [0, 1] (DICOM folders).
+
+    Raises a :class:`VolumeReadError` subclass whose one-line message names the file, the problem and what to do.
+    ``ValueError`` is raised only for invalid arguments (a raw layout that makes no sense, an unknown
+    ``irregular``).
     """
     path = Path(path).expanduser()
+    if irregular not in ("resample", "error"):
+        raise ValueError(f"irregular must be 'resample' or 'error', got {irregular!r}")
+    if raw is not None:
+        raw.checked_dtype()  # argument errors stay ValueError
     if not path.exists():
         raise VolumeReadError(path, "no such file or folder", "Check the path")
-    if raw is not None:
-        volume = read_raw(path, raw)
-    elif path.is_dir():
-        volume = read_dicom_series(path, series_uid=series_uid, irregular=irregular, progress=progress)
-    else:
-        fmt = volume_format(path)
-        if path.stat().st_size == 0:
-            raise CorruptFileError(path, "the file is empty (0 bytes)", "Re-export or re-copy it")
-        if fmt == "DICOM":
-            volume = _read_dicom_file(path, series_uid, irregular, progress)
-        elif fmt in ("NIfTI", "Analyze", "MINC"):
-            volume = read_nifti(path)
-        elif fmt == "NRRD":
-            volume = read_nrrd(path)
-        elif fmt == "MetaImage":
-            volume = read_metaimage(path)
-        else:
-            volume = read_vtk_image(path)
+    try:
+        volume = _read(path, series_uid, raw, irregular, allow_gaps, volume_index, progress)
+    except VolumeReadError:
+        raise
+    except MemoryError as exc:
+        raise VolumeReadError(path, "there is not enough memory to read it",
+                              "Close other programs or use a machine with more memory") from exc
+    except Exception as exc:
+        if type(exc).__name__ == "OperationCancelled":
+            raise
+        # The last line of defence of the contract above: an exception no reader anticipated.
+        error = CorruptFileError(path, f"the file could not be read ({type(exc).__name__}: {one_line(exc)[:200]})",
+                                 "It may be damaged or in an unsupported variant of its format")
+        error.unexpected = True
+        raise error from exc
     if min(volume.dimensions) < 2:
         raise UnsupportedFormatError(
             path, f"the image is {'x'.join(map(str, volume.dimensions))} voxels; a volume needs at least 2 on every axis"
         )
     volume.metadata.setdefault("source_path", str(path))
+    volume.metadata.setdefault("warnings", [])
     return right_handed(volume)
 
 
-def _read_dicom_file(path: Path, series_uid, irregular, progress) -> Volume:
-    """A single DICOM file: a multi-frame volume, or one slice of a series (then read its folder's series)."""
-    from .dicom import read_header
-
-    try:
-        header = read_header(path)
-    except Exception as exc:  # pydicom raises many types for damaged files
-        raise CorruptFileError(path, f"not a readable DICOM file ({type(exc).__name__}: {exc})") from exc
-    if int(header.get("NumberOfFrames", 1) or 1) > 1:
-        return read_multiframe(path)
-    uid = series_uid or str(header.get("SeriesInstanceUID", "") or "") or None
-    return read_dicom_series(path.parent, series_uid=uid, irregular=irregular, progress=progress)
+def _read(path: Path, series_uid, raw, irregular, allow_gaps, volume_index, progress) -> Volume:
+    dicom = dict(series_uid=series_uid, irregular=irregular, allow_gaps=allow_gaps, volume_index=volume_index,
+                 progress=progress)
+    if raw is not None:
+        return read_raw(path, raw)
+    if path.is_dir():
+        return read_dicom_series(path, **dicom)
+    fmt = volume_format(path)
+    if require_regular_file(path).st_size == 0:  # FIFOs and devices are refused before anything opens them
+        raise CorruptFileError(path, "the file is empty (0 bytes)", "Re-export or re-copy it")
+    if fmt == "DICOM":
+        return read_dicom_file(path, **dicom)
+    if fmt in ("NIfTI", "Analyze", "MINC"):
+        return read_nifti(path)
+    if fmt == "NRRD":
+        return read_nrrd(path)
+    if fmt == "MetaImage":
+        return read_metaimage(path)
+    return read_vtk_image(path)
 
 
 def save_volume(volume: Volume, path, *, overwrite: bool = False) -> Path:
@@ -153,3 +194,4 @@ def save_volume(volume: Volume, path, *, overwrite: bool = False) -> Path:
     if suffix == ".vti":
         return write_vti(volume, path, overwrite=overwrite)
     raise VolumeWriteError(f"{path}: cannot write '{suffix}'; use one of {', '.join(WRITABLE_SUFFIXES)}")
+

@@ -6,16 +6,25 @@ the workbench show ``str(error)`` as it is, without a traceback.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 
+def _one_line(text) -> str:
+    return re.sub(r"\s+", " ", str(text)).strip().rstrip(".") if text else ""
+
+
 class VolumeReadError(Exception):
-    """A volume could not be read. ``path`` is the file or folder at fault, ``hint`` what the user can do."""
+    """A volume could not be read. ``path`` is the file or folder at fault, ``hint`` what the user can do.
+
+    The message is always one line (problem and hint are collapsed), so a caller can print it as it is.
+    """
 
     def __init__(self, path, problem: str, hint: str = "") -> None:
         self.path = Path(path) if path is not None else None
-        self.problem = problem
-        self.hint = hint
+        self.problem = _one_line(problem)
+        self.hint = _one_line(hint)
+        problem, hint = self.problem, self.hint
         text = f"{self.path}: {problem}" if self.path is not None else problem
         if hint:
             text = f"{text}. {hint}"
@@ -36,6 +45,10 @@ class DicomSeriesError(VolumeReadError):
 
 class MissingDecoderError(VolumeReadError):
     """The pixel data is compressed with a transfer syntax no installed decoder handles."""
+
+
+class MeshReadError(VolumeReadError):
+    """A surface mesh file (STL, OBJ, PLY, VTP, OFF, optionally gzipped) is damaged or not what it claims."""
 
 
 class VolumeWriteError(Exception):

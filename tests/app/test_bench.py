@@ -148,7 +148,7 @@ def test_marching_cubes_bench_extracts_vtks_surface_and_times_every_method(tmp_p
     data = check_run_json(files["marching_cubes.json"])
     assert data["benchmark"] == "marching-cubes" and len(data["rows"]) == len(rows)
     assert list(data["numba_compile_s"]) == ["int16"] and data["numba_compile_s"]["int16"] > 0
-    assert set(data["numba_cache"]) == {"_classify_layers", "_fill_slabs", "_vertex_attributes", "_merge_on_samples"}
+    assert set(data["numba_cache"]) == {"classify_layers", "fill_slabs", "vertex_attributes", "merge_on_samples"}
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -227,7 +227,7 @@ def test_voxel_surfaces_bench_tower_strips_save_memory_on_the_same_triangles(tmp
 # Direct volume rendering (render, then texture slicing)
 # --------------------------------------------------------------------------------------------------------------
 def test_render_bench_images_agree_with_vtk_and_accelerations_keep_the_image(tmp_path, monkeypatch):
-    from algorithms.raymarch import LIGHTING_MODELS
+    from algorithms.rendering.raymarch import LIGHTING_MODELS
 
     size, frames = 128, 3  # three frames: a median that differs from the mean
     monkeypatch.setattr(render, "QUICK_SIZE", size)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from app.io import save_volume
-from app.render_job import read_png
+from app.pipeline import read_png
 
 from .dicom_helpers import small_ct, write_scanner_folder
 
@@ -120,7 +120,7 @@ def test_mesh_close_edges_caps_the_skull_at_the_last_slice(tmp_path):
 
 
 def test_render_slicing_through_opengl_matches_the_float_path(tmp_path):
-    from algorithms.image_metrics import psnr_foreground
+    from algorithms.compare.image_metrics import psnr_foreground
 
     images = {}
     for compositing in ("gl", "float"):
@@ -205,8 +205,8 @@ def colin_crop(tmp_path_factory):
 
 
 def test_voxel_methods_agree_with_vtk_threshold_surface(tmp_path, colin_crop):
-    from algorithms._vtk import image_from_array
-    from algorithms.voxel_surface_checks import vtk_threshold_surface
+    from algorithms.common.vtk_bridge import image_from_array
+    from algorithms.references.vtk_surfaces import vtk_threshold_surface
     from app.io import load_volume
 
     reports = {}
@@ -230,7 +230,7 @@ def test_marching_cubes_mesh_for_a_clinician(tmp_path):
     assert validity["manifold"] and validity["outward_normals"] and validity["components"] == 1
     assert report["written"]["triangles"] < 0.6 * report["triangles"]  # decimated by half
     sidecar = json.loads(Path(str(out) + ".json").read_text())
-    assert sidecar["parameters"] == {"step": 1, "close_edges": False, "smooth_iterations": 20, "smooth_passband": 0.1,
+    assert sidecar["parameters"] == {"stride": 1, "close_edges": False, "smooth_iterations": 20, "smooth_passband": 0.1,
                                      "decimate": 0.5, "largest_component": True}
     assert sidecar["validity"] == validity and sidecar["method"] == "marching-cubes"
     from vtkmodules.vtkIOGeometry import vtkSTLReader

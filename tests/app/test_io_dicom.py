@@ -137,14 +137,44 @@ def test_gantry_tilt_detected_and_corrected(tmp_path):
     loaded = load_volume(tmp_path / "tilt")
     assert abs(loaded.metadata["gantry_tilt_deg"] - 12.0) < 0.01
     assert any("gantry tilt of 12.00 degrees" in w for w in loaded.metadata["warnings"])
-    # After correction the rod is vertical: its centroid no longer moves from slice to slice.
+    # The grid grows by the total drift (9 slices x 0.425 mm = 3.83 pixels -> 4 rows), so no pixel is dropped.
+    assert loaded.dimensions == (nx, ny + 4, nz)
+
     def centroid_rows(image):
         weight = image.astype(float) + 1000
-        return float((weight * yy).sum() / weight.sum())
+        rows = np.arange(image.shape[0])[:, None]
+        return float((weight * rows).sum() / weight.sum())
 
+    # After correction the rod is vertical: its centroid no longer moves from slice to slice ...
     centroids = [centroid_rows(loaded.array[k]) for k in range(nz)]
     assert np.ptp(centroids) < 0.05  # pixels
     assert np.ptp([centroid_rows(rod[k]) for k in range(nz)]) > 3.5
+    # ... it sits where the scanner put it in the patient (world y = 16 mm) ...
+    world = loaded.index_to_world((16, centroids[0], 0))
+    assert world[1] == pytest.approx(16.0, abs=0.05)
+    # ... and every slice keeps all of its signal (linear interpolation conserves the sum when nothing is cut).
+    for k in range(nz):
+        assert (loaded.array[k].astype(float) + 1000).sum() == pytest.approx((rod[k].astype(float) + 1000).sum(), rel=1e-4)
+
+
+def test_gantry_tilt_keeps_pixels_at_the_edge(tmp_path):
+    # Bright pixels on the rows a tilt correction shifts out of the original field of view must survive.
+    nz, ny, nx = 6, 20, 16
+    spacing = (1.0, 1.0, 2.0)
+    drift = spacing[2] * math.tan(math.radians(20.0))
+    stack = np.full((nz, ny, nx), -1000, dtype=np.int16)
+    stack[:, 0, :] = 1000  # first row of every slice
+    stack[:, -1, :] = 500  # last row
+    flat = Volume(stack, spacing=spacing, modality="CT", units="HU")
+    paths = write_dicom_series(flat, tmp_path / "edge", rescale_intercept=-1024)
+    for k, path in enumerate(paths):
+        ds = pydicom.dcmread(path)
+        ds.ImagePositionPatient = [0.0, -drift * k, spacing[2] * k]
+        ds.save_as(path)
+    loaded = load_volume(tmp_path / "edge")
+    assert loaded.dimensions[1] > ny
+    for k in range(nz):
+        assert (loaded.array[k].astype(float) + 1000).sum() == pytest.approx((stack[k].astype(float) + 1000).sum(), rel=1e-4)
 
 
 def test_several_series_choose_and_list(tmp_path):

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from vtkmodules.util import numpy_support
 
-from algorithms import surface_compare as sc
-from algorithms.marching_cubes import marching_cubes
+from algorithms import compare as sc
+from algorithms.surfaces.marching_cubes import marching_cubes
 from app import mesh_cleanup
 from app.datasets import sphere_field
 

@@ -44,7 +44,8 @@ def test_setters_validate_and_emit_only_on_change(model):
         model.set_view_mode(0, "nope")
     modes = record(model.view_mode_changed)
     model.set_view_mode(2, "raymarch")
-    assert modes == [(2, "raymarch")]
+    assert [change[:2] for change in modes] == [(2, "raymarch")]
+    assert modes[0][2]["light_samples"] == 8  # the mode's options, resolved
 
 
 def test_transfer_function_edits(model):

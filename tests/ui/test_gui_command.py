@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from app.io import save_volume
-from app.render_job import read_png
+from app.pipeline import read_png
 
 from ..app.dicom_helpers import small_ct, write_scanner_folder
 

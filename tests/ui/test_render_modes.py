@@ -89,4 +89,4 @@ def test_marching_cubes_and_its_distance_to_flying_edges(qtbot, window, small_ct
     text = window.views[1].stats_label.text()
     hausdorff = float(re.search(r"Hausdorff ([0-9.e+-]+) mm", text).group(1))
     assert hausdorff < 0.05  # the same isosurface up to how each method places vertices where samples equal iso
-    assert window.views[1]._scalar_bar is not None and window.views[1].capture().mean() > 3
+    assert window.views[1].pipeline.content.scalar_bar is not None and window.views[1].capture().mean() > 3

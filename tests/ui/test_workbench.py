@@ -11,8 +11,8 @@ import pytest
 from qtpy.QtCore import QTimer
 from qtpy.QtWidgets import QApplication, QFileDialog, QMessageBox
 
-from algorithms.image_metrics import psnr
-from app.render_job import read_png, write_png
+from algorithms.compare.image_metrics import psnr
+from app.pipeline import read_png, write_png
 from app.samples import sample_path
 
 from .conftest import open_and_wait, wait_ready
@@ -113,7 +113,7 @@ def test_corrupted_file_shows_a_dialog_and_the_app_survives(qtbot, window, tmp_p
 def test_export_mesh_through_the_menu(qtbot, window, small_ct_file, tmp_path, monkeypatch):
     from vtkmodules.vtkIOGeometry import vtkSTLReader
 
-    from algorithms.surface_compare import surface_arrays
+    from algorithms.compare import surface_arrays
     from app.meshing import to_world
 
     open_and_wait(qtbot, window, small_ct_file)
@@ -215,7 +215,7 @@ def test_gui_stays_responsive_while_meshing_and_cancel_stops(qtbot, window, tmp_
     ticks: list[tuple[float, bool]] = []
 
     def tick():
-        ticks.append((time.perf_counter(), view._content_task is not None))
+        ticks.append((time.perf_counter(), view.pipeline.preparing))
 
     timer = QTimer()
     timer.setInterval(10)
@@ -223,7 +223,7 @@ def test_gui_stays_responsive_while_meshing_and_cancel_stops(qtbot, window, tmp_
     timer.start()
     started = time.perf_counter()
     window.model.set_iso(0.5)
-    qtbot.waitUntil(lambda: view._content_task is None, timeout=300_000)
+    qtbot.waitUntil(lambda: not view.pipeline.preparing, timeout=300_000)
     computed = time.perf_counter() - started
     timer.stop()
     # Intervals between two timer ticks that both fell while the extraction ran: the GUI thread's longest wait.
@@ -239,10 +239,10 @@ def test_gui_stays_responsive_while_meshing_and_cancel_stops(qtbot, window, tmp_
     qtbot.waitUntil(lambda: window._progress_value > 0, timeout=30_000)
     pressed = time.perf_counter()
     window.cancel_button.click()
-    qtbot.waitUntil(lambda: view._content_task is None, timeout=60_000)
+    qtbot.waitUntil(lambda: not view.pipeline.preparing, timeout=60_000)
     assert time.perf_counter() - pressed < 0.5 * computed
     assert view.stats_label.text().startswith("cancelled")
-    assert view.surface.stats["triangles"] == triangles
+    assert view.current_surface().stats["triangles"] == triangles
 
 
 def test_dicom_folder_series_choice(qtbot, window, tmp_path, monkeypatch):

@@ -1,0 +1,123 @@
+"""numba kernels of texture slicing: filling slice textures, and compositing them per pixel (the float path).
+
+See :mod:`algorithms.rendering.texture_slicing` for the method; textures hold premultiplied RGBA, texel rows along
+``v``, and are laid out as :class:`~.textures.TextureChunk` describes.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, prange
+
+from ...common.pixel_rays import pixel_ray
+from ...common.sampling import sample_volume
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def fill_textures(volume, inverse_spacing, box_min, box_max, origins, u_steps, v_steps, widths, starts,
+                   row_slices, row_indices, table, table_min, table_scale, out):
+    """Premultiplied RGBA of the trilinear scalar at every texel centre of several slice textures.
+
+    Texture ``m`` occupies ``out[starts[m] : starts[m] + height * width]`` (rows of ``widths[m]`` texels); the
+    work items are texture rows, ``(row_slices[r], row_indices[r])``, so the threads share rows of all textures.
+    Texels farther outside the box than one texel diagonal are never read by bilinear filtering inside the
+    polygon; they are set to zero instead of being resampled.
+    """
+    last = table.shape[0] - 1
+    for item in prange(row_slices.shape[0]):
+        m = row_slices[item]
+        q = row_indices[item]
+        width = widths[m]
+        base = starts[m] + q * width
+        margin = (math.sqrt(u_steps[m, 0] ** 2 + u_steps[m, 1] ** 2 + u_steps[m, 2] ** 2)
+                  + math.sqrt(v_steps[m, 0] ** 2 + v_steps[m, 1] ** 2 + v_steps[m, 2] ** 2))
+        for p in range(width):
+            x = origins[m, 0] + (p + 0.5) * u_steps[m, 0] + (q + 0.5) * v_steps[m, 0]
+            y = origins[m, 1] + (p + 0.5) * u_steps[m, 1] + (q + 0.5) * v_steps[m, 1]
+            z = origins[m, 2] + (p + 0.5) * u_steps[m, 2] + (q + 0.5) * v_steps[m, 2]
+            if (x < box_min[0] - margin or x > box_max[0] + margin or y < box_min[1] - margin
+                    or y > box_max[1] + margin or z < box_min[2] - margin or z > box_max[2] + margin):
+                for channel in range(4):
+                    out[base + p, channel] = 0.0
+                continue
+            value = sample_volume(volume, x * inverse_spacing[0], y * inverse_spacing[1], z * inverse_spacing[2])
+            position = min(max((value - table_min) * table_scale, 0.0), float(last))
+            entry = min(int(position), last - 1)
+            fraction = position - entry
+            alpha = table[entry, 3] + fraction * (table[entry + 1, 3] - table[entry, 3])
+            for channel in range(3):
+                colour = table[entry, channel] + fraction * (table[entry + 1, channel] - table[entry, channel])
+                out[base + p, channel] = alpha * colour
+            out[base + p, 3] = alpha
+
+
+@njit(cache=True, nogil=True)
+def _bilinear(textures, channel, base, width, p0, p1, q0, q1, fs, fr):
+    """Bilinear interpolation of one channel of the texture at ``base`` between texels ``(q0|q1, p0|p1)``."""
+    t00 = textures[base + q0 * width + p0, channel]
+    t01 = textures[base + q0 * width + p1, channel]
+    t10 = textures[base + q1 * width + p0, channel]
+    t11 = textures[base + q1 * width + p1, channel]
+    bottom = t00 + fs * (t01 - t00)
+    top = t10 + fs * (t11 - t10)
+    return bottom + fr * (top - bottom)
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def composite_slices(accumulator, frame, parallel, normal, plane_offsets, box_min, box_max, tolerance, origins,
+                      u_inverse, v_inverse, heights, widths, starts, textures, rows, columns, quantise):
+    """Blend slice textures, in the given (back-to-front) order, over ``accumulator (H, W, 4)``:
+    ``C = T + (1 - T_alpha) C`` wherever a pixel's ray meets a slice inside the box.
+
+    ``frame`` is :meth:`algorithms.common.camera.Camera.ray_frame`. Slice ``m`` lies in the plane ``normal . x =
+    plane_offsets[m]``; its texture (layout as in :func:`fill_textures`) has its texel-(0, 0) corner at ``origins[m]``,
+    and ``u_inverse``/``v_inverse`` map an offset from it to texel units (``u_step / |u_step|^2``). ``rows``/
+    ``columns`` bound the pixels slice ``m`` can cover. With ``quantise`` every blend is rounded to 8 bits, as a
+    framebuffer stores it.
+    """
+    for row in prange(accumulator.shape[0]):
+        for m in range(plane_offsets.shape[0]):
+            if row < rows[m, 0] or row >= rows[m, 1]:
+                continue
+            width = widths[m]
+            height = heights[m]
+            for col in range(columns[m, 0], columns[m, 1]):
+                ox, oy, oz, dx, dy, dz = pixel_ray(frame, parallel, col, row)
+                denominator = normal[0] * dx + normal[1] * dy + normal[2] * dz
+                if denominator == 0.0:
+                    continue
+                t = (plane_offsets[m] - (normal[0] * ox + normal[1] * oy + normal[2] * oz)) / denominator
+                if not parallel and t <= 0.0:
+                    continue
+                x = ox + t * dx
+                y = oy + t * dy
+                z = oz + t * dz
+                if (x < box_min[0] - tolerance or x > box_max[0] + tolerance or y < box_min[1] - tolerance
+                        or y > box_max[1] + tolerance or z < box_min[2] - tolerance or z > box_max[2] + tolerance):
+                    continue
+                rx = x - origins[m, 0]
+                ry = y - origins[m, 1]
+                rz = z - origins[m, 2]
+                s = rx * u_inverse[m, 0] + ry * u_inverse[m, 1] + rz * u_inverse[m, 2] - 0.5
+                r = rx * v_inverse[m, 0] + ry * v_inverse[m, 1] + rz * v_inverse[m, 2] - 0.5
+                s = min(max(s, 0.0), width - 1.0)  # clamp to the edge texels, like GL_CLAMP_TO_EDGE
+                r = min(max(r, 0.0), height - 1.0)
+                p0 = min(int(s), max(width - 2, 0))
+                q0 = min(int(r), max(height - 2, 0))
+                p1 = min(p0 + 1, width - 1)
+                q1 = min(q0 + 1, height - 1)
+                fs = s - p0
+                fr = r - q0
+                alpha = _bilinear(textures, 3, starts[m], width, p0, p1, q0, q1, fs, fr)
+                if alpha <= 0.0:
+                    continue  # VTK's fragment shader discards fully transparent fragments too
+                for channel in range(4):
+                    if channel == 3:
+                        sample = alpha
+                    else:
+                        sample = _bilinear(textures, channel, starts[m], width, p0, p1, q0, q1, fs, fr)
+                    value = sample + (1.0 - alpha) * accumulator[row, col, channel]
+                    if quantise:
+                        value = math.floor(value * 255.0 + 0.5) / 255.0
+                    accumulator[row, col, channel] = value

@@ -1,0 +1,7 @@
+"""``python -m app.cli``: the same as the ``voxelscope`` command."""
+
+import sys
+
+from . import main
+
+sys.exit(main())

@@ -1,0 +1,150 @@
+"""What the commands share: the input arguments and loading, mode-option flags built from the registry, JSON output."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any, Iterable
+
+EXIT_ERROR = 1
+EXIT_USAGE = 2
+
+
+class CommandError(Exception):
+    """An error whose message is shown to the user as it is."""
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Inputs
+# --------------------------------------------------------------------------------------------------------------
+def add_input_arguments(parser: argparse.ArgumentParser, *, meshes: bool = False, name: str = "path") -> None:
+    """The input path and the options for reading it (DICOM series choice, raw layout)."""
+    what = "volume file, DICOM folder or mesh file (STL, OBJ, PLY, VTP, OFF)" if meshes else "volume file or DICOM folder"
+    parser.add_argument(name, help=f"{what}; 'sample' for the bundled CT phantom, 'sample:mri' for the bundled brain "
+                                   "MRI")
+    parser.add_argument("--series", metavar="UID", help="DICOM SeriesInstanceUID to load (default: the largest stack)")
+    parser.add_argument("--strict-spacing", action="store_true",
+                        help="refuse DICOM series with missing slices or uneven spacing instead of resampling")
+    parser.add_argument("--volume", type=int, metavar="N", dest="volume_index",
+                        help="DICOM series with several volumes (time points, echoes, MOSAIC files): load volume N "
+                             "(0 is the first; 'info' lists them)")
+    parser.add_argument("--allow-gaps", action="store_true",
+                        help="fill large gaps in a DICOM series by interpolation (refused by default; the invented "
+                             "slices are reported)")
+    raw = parser.add_argument_group("raw files (no header)")
+    raw.add_argument("--raw-dims", nargs=3, type=int, metavar=("NX", "NY", "NZ"), help="voxels along x, y, z")
+    raw.add_argument("--raw-dtype", default="uint8", help="voxel type, e.g. uint8, int16, float32 (default uint8)")
+    raw.add_argument("--raw-spacing", nargs=3, type=float, default=(1.0, 1.0, 1.0), metavar=("SX", "SY", "SZ"),
+                     help="voxel size in mm (default 1 1 1)")
+    raw.add_argument("--raw-endian", choices=("little", "big"), default="little")
+    raw.add_argument("--raw-header", type=int, default=0, metavar="BYTES", help="bytes to skip at the start")
+
+
+def load_volume_argument(args, path: str | None = None):
+    """The volume named on the command line (``sample`` and ``sample:NAME`` resolved), as a :class:`Volume`."""
+    from ..io import RawLayout, load_volume
+    from ..samples import resolve_path
+
+    location = resolve_path(path if path is not None else args.path)
+    raw = None
+    if getattr(args, "raw_dims", None):
+        raw = RawLayout(tuple(args.raw_dims), args.raw_dtype, tuple(args.raw_spacing), byte_order=args.raw_endian,
+                        header_bytes=args.raw_header)
+    keywords: dict[str, Any] = {"series_uid": getattr(args, "series", None), "raw": raw,
+                                "irregular": "error" if getattr(args, "strict_spacing", False) else "resample"}
+    if getattr(args, "allow_gaps", False):
+        keywords["allow_gaps"] = True
+    if getattr(args, "volume_index", None) is not None:
+        keywords["volume_index"] = args.volume_index
+    return load_volume(location, **keywords)
+
+
+def load_item(args, path: str | None = None):
+    """The scene item named on the command line: a volume item, or a mesh item for mesh files."""
+    from ..io.meshes import is_mesh_path, load_mesh
+    from ..samples import resolve_path
+    from ..scene import MeshItem, VolumeItem
+
+    text = path if path is not None else args.path
+    location = resolve_path(text)
+    if is_mesh_path(location):
+        return MeshItem.from_mesh(load_mesh(location), _item_name(location))
+    volume = load_volume_argument(args, text)
+    return VolumeItem(_item_name(location), volume=volume, metadata=dict(volume.metadata))
+
+
+def _item_name(path: Path) -> str:
+    name = Path(path).name
+    for suffix in (".gz", ".nii", ".nrrd", ".nhdr", ".mha", ".mhd", ".vti", ".vtk", ".stl", ".obj", ".ply", ".vtp",
+                   ".off", ".dcm"):
+        if name.lower().endswith(suffix):
+            name = name[: -len(suffix)]
+    return name or str(path)
+
+
+def refuse_existing(path, force: bool) -> Path:
+    """``path`` as a Path; a CommandError if it exists and ``force`` is not set."""
+    path = Path(path).expanduser()
+    if path.exists() and not force:
+        raise CommandError(f"{path} already exists; choose another name or add --force")
+    return path
+
+
+def print_json(data: dict[str, Any]) -> None:
+    print(json.dumps(data, indent=2, default=_json_default))
+
+
+def _json_default(value):
+    import numpy as np
+
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return str(value)
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Mode options as flags
+# --------------------------------------------------------------------------------------------------------------
+OPTION_PREFIX = "mode_option_"
+
+
+def add_mode_option_flags(parser: argparse.ArgumentParser, modes: Iterable) -> None:
+    """One flag per option of the given modes (``--light-samples N``...), values checked by the chosen mode."""
+    group = parser.add_argument_group("mode options (see 'voxelscope modes'; each applies to the modes that "
+                                      "declare it)")
+    seen: dict[str, list[str]] = {}
+    options = {}
+    for mode in modes:
+        for option in mode.options:
+            seen.setdefault(option.name, []).append(mode.name)
+            options.setdefault(option.name, option)
+    for name, option in options.items():
+        users = ", ".join(seen[name])
+        details = [option.help]
+        if option.choices is not None:
+            details.append("choices: " + ", ".join(map(str, option.allowed)))
+        if option.default is not None:
+            details.append(f"default {option.default}{' ' + option.unit if option.unit else ''}")
+        details.append(f"modes: {users}")
+        help_text = "; ".join(details).replace("%", "%%")
+        metavar = option.unit.upper() if option.unit else option.type.upper()
+        try:
+            if option.type == "bool":
+                group.add_argument(option.flag, dest=OPTION_PREFIX + name, action=argparse.BooleanOptionalAction,
+                                   default=None, help=help_text)
+            else:
+                group.add_argument(option.flag, dest=OPTION_PREFIX + name, default=None, metavar=metavar,
+                                   help=help_text)
+        except argparse.ArgumentError as exc:
+            raise CommandError(f"mode option {option.flag} clashes with a flag of the command: {exc}") from None
+
+
+def mode_options_from_args(args) -> dict[str, Any]:
+    """The mode options given on the command line (as text; the mode validates and converts them)."""
+    return {key[len(OPTION_PREFIX):]: value for key, value in vars(args).items()
+            if key.startswith(OPTION_PREFIX) and value is not None}

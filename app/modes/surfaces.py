@@ -1,0 +1,182 @@
+"""Surface modes: a volume (or a field) at an isovalue -> a triangle surface, by a VTK filter.
+
+Ours: marching cubes with Bourke's tables (source 001; Lorensen & Cline 1987), the visible voxel faces and the
+tower strips of source 000 and their hybrid. VTK's: ``vtkFlyingEdges3D`` and ``vtkMarchingCubes``. Each mode says
+which filter to build; :meth:`SurfaceMode.extract` runs it (image -> filter -> surface in the volume frame), for a
+view, for ``voxelscope mesh`` and for comparisons alike.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from ..pipeline.surfaces import SurfaceContent, SurfaceResult, polydata_stats
+from . import register_mode
+from .base import Capabilities, Mode, Option
+
+
+@dataclass(frozen=True)
+class SurfaceMode(Mode):
+    """An isosurface mode. ``make_filter(options, iso, stride)`` returns the configured VTK algorithm (image in,
+    polydata out); ``compiled`` marks numba filters (warmed up on a tiny volume first, so ``seconds`` measures the
+    extraction and ``compile_seconds`` the compilation or cache load); ``statistics(polydata)`` adds method-specific
+    numbers (strip memory of the voxel surfaces)."""
+
+    make_filter: Callable[..., Any] | None = None
+    flat_shading: bool = False
+    compiled: bool = False
+    statistics: Callable[[Any], dict] | None = None
+
+    def create_content(self, options: Mapping[str, Any]) -> SurfaceContent:
+        return SurfaceContent(self, options)
+
+    def extract(self, item, iso: float, *, stride: int = 1, options: Mapping[str, Any] | None = None,
+                progress=None) -> SurfaceResult:
+        """The surface of ``item`` (a scene item or a :class:`~app.volume.Volume`) at ``iso``, volume frame (mm).
+
+        ``stride`` > 1 uses the mode's coarse path (every ``stride``-th sample); a mode without one refuses.
+        """
+        from algorithms.common.vtk_bridge import run_algorithm
+
+        if not np.isfinite(iso):
+            raise ValueError(f"the isovalue must be a finite number, got {iso}")
+        if int(stride) != stride or stride < 1:
+            raise ValueError(f"the stride must be a whole number of voxels, 1 or more; got {stride}")
+        if stride > 1 and not self.capabilities.preview_stride:
+            raise ValueError(f"{self.label} extracts at full resolution only (stride 1)")
+        options = self.resolve_options(options)
+        image = item.vtk_image() if hasattr(item, "vtk_image") else item.to_vtk(local=True)
+        compile_seconds = _warm_up(self, options, image) if self.compiled else 0.0
+        algorithm = self.make_filter(options, float(iso), int(stride))
+        algorithm.SetInputDataObject(image)
+        start = time.perf_counter()
+        output = run_algorithm(algorithm, progress)
+        seconds = time.perf_counter() - start
+        polydata = output.NewInstance()
+        polydata.ShallowCopy(output)
+        stats = polydata_stats(polydata)
+        if self.statistics is not None:
+            stats.update(self.statistics(polydata))
+        stats.update({"seconds": seconds, "compile_seconds": compile_seconds})
+        return SurfaceResult(polydata, stats)
+
+
+_WARM: set[tuple[str, str]] = set()
+
+
+def _warm_up(mode: SurfaceMode, options, image) -> float:
+    """Run ``mode``'s filter once on a tiny volume of the image's type so numba compiles (or loads its cache) before
+    the timed run; returns the seconds it took (0 once warm)."""
+    from algorithms.common.vtk_bridge import image_from_array, run_algorithm
+
+    from vtkmodules.util.numpy_support import get_numpy_array_type
+
+    scalars = image.GetPointData().GetScalars()
+    dtype = np.dtype(get_numpy_array_type(scalars.GetDataType()) if scalars is not None else np.float32).name
+    key = (mode.name, dtype)
+    if key in _WARM:
+        return 0.0
+    start = time.perf_counter()
+    tiny = np.zeros((3, 3, 3), dtype=dtype)
+    tiny[1, 1, 1] = 1
+    algorithm = mode.make_filter(options, 0.5, 1)
+    algorithm.SetInputDataObject(image_from_array(tiny))
+    run_algorithm(algorithm)
+    _WARM.add(key)
+    return time.perf_counter() - start
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# The filters
+# ----------------------------------------------------------------------------------------------------------------
+def _vtk_contour(class_name: str):
+    def make(options, iso: float, stride: int):
+        import vtkmodules.vtkFiltersCore as core
+
+        algorithm = getattr(core, class_name)()
+        algorithm.SetValue(0, iso)
+        algorithm.SetComputeNormals(1)
+        algorithm.SetComputeScalars(0)
+        if hasattr(algorithm, "SetComputeGradients"):
+            algorithm.SetComputeGradients(0)
+        return algorithm
+
+    return make
+
+
+def _marching_cubes(options, iso: float, stride: int):
+    from algorithms.surfaces.marching_cubes import MarchingCubesFilter
+
+    algorithm = MarchingCubesFilter()
+    algorithm.SetValue(0, iso)
+    algorithm.SetStride(stride)
+    algorithm.ComputeNormalsOn()
+    return algorithm
+
+
+def _voxel_filter(class_name: str):
+    def make(options, iso: float, stride: int):
+        from algorithms.surfaces import tower, voxel_faces
+
+        module = voxel_faces if class_name == "VoxelFacesFilter" else tower
+        algorithm = getattr(module, class_name)()
+        algorithm.SetThreshold(iso)
+        if "max_strip_vertices" in options:
+            algorithm.SetMaxStripVertices(options["max_strip_vertices"])
+        return algorithm
+
+    return make
+
+
+def _voxel_memory(polydata) -> dict:
+    """The voxel surfaces' memory as source 000 counts it (strips without indices) and as VTK uploads it."""
+    from algorithms.compare.voxel_surfaces import polydata_memory
+
+    memory = polydata_memory(polydata)
+    return {
+        "bytes": memory.total_bytes(32),
+        "bytes_16": memory.total_bytes(16),
+        "vertices": memory.vertices,
+        "indices": memory.indices,
+        "draw_calls": memory.draw_calls,
+        "vtk_upload_bytes": memory.vtk_upload_bytes,
+    }
+
+
+SURFACE = dict(group="Surfaces", input="volume", output="surface")
+ISO = Capabilities(uses_iso=True)
+
+register_mode(SurfaceMode(
+    "marching-cubes", "Marching cubes", "Our marching cubes with Paul Bourke's case tables, shared edge vertices and "
+    "gradient normals (source 001)", origin="ours", **SURFACE, make_filter=_marching_cubes, compiled=True,
+    capabilities=Capabilities(uses_iso=True, preview_stride=2),
+))
+register_mode(SurfaceMode(
+    "flying-edges", "Flying edges", "Isosurface by VTK's vtkFlyingEdges3D (parallel, with gradient normals)",
+    origin="VTK", **SURFACE, make_filter=_vtk_contour("vtkFlyingEdges3D"), capabilities=ISO,
+))
+register_mode(SurfaceMode(
+    "vtk-marching-cubes", "Marching cubes", "Isosurface by VTK's classic vtkMarchingCubes (with gradient normals)",
+    origin="VTK", **SURFACE, make_filter=_vtk_contour("vtkMarchingCubes"), capabilities=ISO,
+))
+register_mode(SurfaceMode(
+    "voxel-faces", "Voxel faces", "Every visible face of the voxels at or above the threshold, 4 vertices and "
+    "6 indices each (source 000)", origin="ours", **SURFACE, make_filter=_voxel_filter("VoxelFacesFilter"),
+    flat_shading=True, compiled=True, statistics=_voxel_memory, capabilities=ISO,
+))
+register_mode(SurfaceMode(
+    "tower", "Tower strips", "The same faces as triangle strips: one per cluster boundary and slice, plus top and "
+    "bottom runs (source 000's tower algorithm)", origin="ours", **SURFACE, make_filter=_voxel_filter("TowerFilter"),
+    flat_shading=True, compiled=True, statistics=_voxel_memory, capabilities=ISO,
+))
+register_mode(SurfaceMode(
+    "hybrid", "Hybrid strips", "Tower strips, with strips of at most L vertices turned back into indexed triangles "
+    "(source 000)", origin="ours", **SURFACE, make_filter=_voxel_filter("HybridFilter"), flat_shading=True,
+    compiled=True, statistics=_voxel_memory, capabilities=ISO,
+    options=(Option("max_strip_vertices", "int", 10, "hybrid: strips of at most this many vertices become "
+                    "indexed triangles (source 000 used 10)", minimum=4, maximum=1_000_000),),
+))

@@ -1,0 +1,24 @@
+"""The one view pipeline: what the command line and every window view use to show a scene item in a render mode.
+
+- :class:`ViewPipeline` (``view.py``): one view's VTK pipeline, kept up to date as its inputs change;
+- contents (``content.py`` and ``surfaces.py``, ``volumes.py``, ``images.py``, ``comparisons.py``): what a mode
+  shows, made by :meth:`app.modes.base.Mode.create_content`;
+- ``jobs.py``: where long work runs (the host's runner); ``cameras.py``: cameras in patient coordinates;
+  ``props.py``: the VTK props every view uses; ``offscreen.py``: off-screen scenes and PNG files;
+  ``headless.py``: ``voxelscope render``; ``timing.py``: frame-time statistics.
+"""
+
+from .cameras import STANDARD_VIEWS, camera_in_frame, default_camera, fit_camera, turning_cameras
+from .content import Frame, ViewContent, ViewInputs
+from .headless import RenderReport, RenderSettings, parse_background, render_item, view_inputs
+from .jobs import ImmediateRunner, JobRunner
+from .offscreen import OffscreenScene, read_png, write_png
+from .timing import FrameTimes, Timing, time_call
+from .view import ViewPipeline
+
+__all__ = [
+    "STANDARD_VIEWS", "camera_in_frame", "default_camera", "fit_camera", "turning_cameras", "Frame", "ViewContent",
+    "ViewInputs", "RenderReport", "RenderSettings", "parse_background", "render_item", "view_inputs",
+    "ImmediateRunner", "JobRunner", "OffscreenScene", "read_png", "write_png", "FrameTimes", "Timing", "time_call",
+    "ViewPipeline",
+]

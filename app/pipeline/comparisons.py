@@ -1,0 +1,187 @@
+"""Comparison contents: one mode against another in the same view.
+
+- :class:`SurfaceDistanceContent`: the test mode's surface coloured by each vertex's distance (mm) to the reference
+  mode's surface, with the Hausdorff distance, the mean symmetric distance and the 95th percentile.
+- :class:`ImageDifferenceContent`: our renderer against a VTK volume mapper at the same camera and size, shown as a
+  heat map of the difference with the foreground PSNR, RMSE and SSIM. VTK's picture is rendered on the owner thread
+  (OpenGL) in an off-screen scene; ours and the difference off it.
+
+Tests, benchmarks and the window share :func:`surface_distance` and :func:`image_difference`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from algorithms.common.camera import Camera
+from algorithms.common.progress import ProgressCallback, scaled
+
+from .content import IGNORE, REBUILD, REFRAME, Frame, ViewContent, ViewInputs
+from .images import filter_frame, frame_camera
+from .props import distance_actor
+from .surfaces import SurfaceResult
+
+DISTANCE_ARRAY = "distance_mm"
+
+
+def surface_distance(item, test: str, reference: str, iso: float, *, options=None,
+                     progress: ProgressCallback = None) -> SurfaceResult:
+    """The ``test`` mode's surface with a point array ``distance_mm``: each vertex's distance to ``reference``'s.
+
+    ``stats`` carries the test surface's counts plus ``hausdorff_mm`` (largest vertex distance either way),
+    ``mean_mm`` (mean symmetric surface distance) and ``p95_mm`` (95th percentile of the test-to-reference
+    distances).
+    """
+    from vtkmodules.util import numpy_support
+
+    from algorithms.compare.measures import distance_to_surface
+    from algorithms.compare.triangles import surface_arrays
+
+    from ..modes import get_mode
+
+    ours = get_mode(test).extract(item, iso, options=options, progress=scaled(progress, 0.0, 0.3))
+    theirs = get_mode(reference).extract(item, iso, progress=scaled(progress, 0.3, 0.5))
+    points_a, triangles_a = surface_arrays(ours.polydata)
+    points_b, triangles_b = surface_arrays(theirs.polydata)
+    if len(triangles_a) == 0 or len(triangles_b) == 0:
+        units = getattr(getattr(item, "volume", item), "units_label", "")
+        raise ValueError(f"no surface at {iso:g} {units}: nothing to compare")
+    a_to_b = distance_to_surface(points_a, (points_b, triangles_b), progress=scaled(progress, 0.5, 0.8))
+    b_to_a = distance_to_surface(points_b[np.unique(triangles_b)], (points_a, triangles_a),
+                                 progress=scaled(progress, 0.8, 1.0))
+    used = np.unique(triangles_a)
+    array = numpy_support.numpy_to_vtk(a_to_b.astype(np.float32), deep=True)
+    array.SetName(DISTANCE_ARRAY)
+    polydata = ours.polydata.NewInstance()
+    polydata.ShallowCopy(ours.polydata)
+    polydata.GetPointData().AddArray(array)
+    stats = dict(ours.stats)
+    stats.update({
+        "hausdorff_mm": float(max(a_to_b[used].max(), b_to_a.max())),
+        "mean_mm": float((a_to_b[used].sum() + b_to_a.sum()) / (used.size + b_to_a.size)),
+        "p95_mm": float(np.percentile(a_to_b[used], 95)),
+        "reference_triangles": theirs.stats["triangles"],
+    })
+    return SurfaceResult(polydata, stats)
+
+
+@dataclass
+class ImageDifference:
+    """The heat map of |test - reference| and the comparison numbers (PSNR over the foreground, RMSE, SSIM)."""
+
+    heatmap: np.ndarray  # (h, w, 3) uint8
+    numbers: dict[str, Any] = field(default_factory=dict)
+
+
+def image_difference(test: np.ndarray, reference: np.ndarray, *, background=(0.0, 0.0, 0.0)) -> ImageDifference:
+    """Compare two renderings of the same view (``(h, w, 3)`` uint8 or float in [0, 1])."""
+    from algorithms.compare.image_metrics import compare_images, difference_heatmap
+
+    comparison = compare_images(test, reference, background=background)
+    return ImageDifference(difference_heatmap(test, reference), comparison.as_dict())
+
+
+class SurfaceDistanceContent(ViewContent):
+    """The test mode's surface coloured by its distance to the reference mode's surface."""
+
+    result: SurfaceResult | None = None
+
+    def prepare(self, inputs: ViewInputs, *, preview: bool = False, progress=None) -> SurfaceResult:
+        return surface_distance(inputs.item, self.mode.test, self.mode.reference, inputs.iso, options=self.options,
+                                progress=progress)
+
+    def install(self, renderer, inputs: ViewInputs, prepared: SurfaceResult) -> None:
+        self.result = prepared
+        self.stats = dict(prepared.stats)
+        actor, bar = distance_actor(prepared.polydata, inputs.item.local_to_world, DISTANCE_ARRAY)
+        self.scalar_bar = bar
+        self._replace_props(renderer, [actor, bar])
+
+    def react(self, change: str, renderer, inputs: ViewInputs) -> str:
+        return REBUILD if change == "iso" else IGNORE
+
+    def status(self) -> str:
+        from ..modes import get_mode
+
+        s = self.stats
+        if not s:
+            return ""
+        return (f"distance to {get_mode(self.mode.reference).label}: Hausdorff {s['hausdorff_mm']:.3f} mm, "
+                f"mean {s['mean_mm']:.4f} mm, 95 % {s['p95_mm']:.3f} mm")
+
+
+class ImageDifferenceContent(ViewContent):
+    """Our renderer's frame against a VTK volume mapper's frame at the same camera: the heat map of their
+    difference and its numbers."""
+
+    uses_frames = True
+    filter = None
+    reference = None
+
+    def prepare(self, inputs: ViewInputs, *, preview: bool = False, progress=None):
+        from ..modes import get_mode
+
+        return get_mode(self.mode.test).make_filter(self.options, inputs)
+
+    def install(self, renderer, inputs: ViewInputs, prepared) -> None:
+        from ..modes import get_mode
+        from .offscreen import OffscreenScene
+        from .props import volume_prop
+
+        self.close()
+        self.filter, self._inputs = prepared, inputs
+        self.reference = OffscreenScene((64, 64), inputs.background)
+        self.reference.add(volume_prop(inputs.volume, inputs.transfer_function,
+                                       mapper=get_mode(self.mode.reference).mapper,
+                                       sample_distance=inputs.effective_sample_distance(),
+                                       image=inputs.item.vtk_image()))
+
+    def react(self, change: str, renderer, inputs: ViewInputs) -> str:
+        if self.filter is None:
+            return IGNORE
+        if change in ("transfer_function", "sample_distance", "background"):
+            return REBUILD
+        return IGNORE
+
+    def frame_work(self, renderer, camera: Camera, size: tuple[int, int]):
+        from ..modes import get_mode
+
+        inputs, algorithm = self._inputs, self.filter
+        background = tuple(inputs.background)
+        local = frame_camera(get_mode(self.mode.test), camera, inputs)
+        world = camera.as_parallel() if get_mode(self.mode.test).capabilities.parallel_only else camera
+        # VTK's picture now, on the owner thread (OpenGL); ours and the difference in the worker.
+        self.reference.set_size(*size)
+        self.reference.set_camera(world)
+        self.reference.render()
+        reference = self.reference.capture()
+
+        def work(progress=None) -> Frame:
+            ours = filter_frame(algorithm, local, size, background, progress)
+            difference = image_difference(ours.image, reference, background=background)
+            return Frame(difference.heatmap, {**difference.numbers, "seconds": ours.seconds}, ours.seconds)
+
+        return work
+
+    def show_frame(self, renderer, frame: Frame) -> None:
+        super().show_frame(renderer, frame)
+        self.stats = dict(frame.stats)
+
+    def status(self) -> str:
+        s = self.stats
+        parts = []
+        if "psnr_foreground" in s:
+            parts.append(f"PSNR {s['psnr_foreground']:.1f} dB (foreground)")
+        if "rmse" in s:
+            parts.append(f"RMSE {s['rmse']:.4f}")
+        if "ssim" in s:
+            parts.append(f"SSIM {s['ssim']:.3f}")
+        return ", ".join(parts)
+
+    def close(self) -> None:
+        if self.reference is not None:
+            self.reference.close()
+            self.reference = None

@@ -1,0 +1,153 @@
+"""What one view shows for a mode: the content objects the view pipeline drives.
+
+A content object is made by :meth:`app.modes.base.Mode.create_content` for one view and lives as long as that view
+shows that mode with those options. The pipeline (:class:`app.pipeline.view.ViewPipeline`) calls it in this order:
+
+1. :meth:`ViewContent.prepare` - the long work (running our VTK filter or VTK's, a comparison), on a worker thread
+   in the window or at once on the command line; it must not touch the renderer;
+2. :meth:`ViewContent.install` - on the thread that owns the renderer: add or replace props;
+3. for contents whose picture is made per camera (:attr:`ViewContent.uses_frames`, our software renderers),
+   :meth:`ViewContent.frame_work` for each camera (it may render VTK references at once, on the owner thread, and
+   returns the work for a worker) and :meth:`ViewContent.show_frame` with the result;
+4. :meth:`ViewContent.react` when a shared input changes (isovalue, transfer function, sample distance): the content
+   says whether it must be prepared again, redrawn, or re-framed.
+
+Subclasses live by what they show: :mod:`.surfaces`, :mod:`.volumes`, :mod:`.images`, :mod:`.comparisons`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Callable, Mapping
+
+import numpy as np
+
+from algorithms.common.camera import Camera
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..modes.base import Mode
+    from ..scene import Item
+
+#: What :meth:`ViewContent.react` may answer.
+REBUILD, REDRAW, REFRAME, IGNORE = "rebuild", "redraw", "reframe", "ignore"
+
+
+@dataclass
+class ViewInputs:
+    """Everything a view's content is made from besides the mode's own options.
+
+    ``item`` is the scene item on show (a volume, a field, a mesh...). ``iso`` is in the item's value units,
+    ``sample_distance`` in mm (None: half the smallest voxel spacing), ``background`` an RGB triple in [0, 1].
+    ``interactive`` is True in a window view (VTK's mappers may then coarsen their sampling while the camera moves);
+    off-screen renders keep every setting fixed.
+    """
+
+    item: "Item"
+    iso: float = 0.0
+    transfer_function: Any = None
+    sample_distance: float | None = None
+    background: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    interactive: bool = False
+
+    @property
+    def volume(self):
+        """The item's :class:`~app.volume.Volume` (a ValueError for items that have none)."""
+        volume = getattr(self.item, "volume", None)
+        if volume is None:
+            raise ValueError(f"{self.item.name} is a {self.item.kind}, not a volume")
+        return volume
+
+    def effective_sample_distance(self) -> float:
+        from .props import default_sample_distance
+
+        return self.sample_distance if self.sample_distance is not None else default_sample_distance(self.volume)
+
+
+@dataclass
+class Frame:
+    """One picture made by a software renderer: ``image`` (h, w, 3) uint8, row 0 at the top, and its numbers.
+
+    Contents whose frames are composited by OpenGL (texture slicing drawn by VTK) have no image of their own; they
+    give the frame's ``pixels`` (width, height) instead.
+    """
+
+    image: np.ndarray | None
+    stats: dict[str, Any] = field(default_factory=dict)
+    seconds: float = 0.0
+    pixels: tuple[int, int] | None = None
+
+    @property
+    def size(self) -> tuple[int, int]:
+        if self.image is None:
+            return tuple(self.pixels or (0, 0))
+        height, width = self.image.shape[:2]
+        return width, height
+
+
+class ViewContent(ABC):
+    """Base of every content. ``stats`` holds the numbers the view's status line and ``render --json`` report."""
+
+    #: True for contents drawn as one image per camera (our software renderers), which the pipeline renders with
+    #: previews while the camera moves.
+    uses_frames = False
+
+    def __init__(self, mode: "Mode", options: Mapping[str, Any]) -> None:
+        self.mode = mode
+        self.options = dict(options)
+        self.stats: dict[str, Any] = {}
+        self.props: list = []
+
+    # -- the content ------------------------------------------------------------------------------------------------
+    def prepare(self, inputs: ViewInputs, *, preview: bool = False, progress=None) -> Any:
+        """The long work, off the owner thread; returns what :meth:`install` needs. Default: nothing to do."""
+        return None
+
+    @abstractmethod
+    def install(self, renderer, inputs: ViewInputs, prepared: Any) -> None:
+        """Put the props on ``renderer`` (owner thread), replacing this content's earlier props."""
+
+    def remove(self, renderer) -> None:
+        """Take this content's props off ``renderer``."""
+        for prop in self.props:
+            renderer.RemoveViewProp(prop)
+        self.props = []
+
+    def _replace_props(self, renderer, props: list) -> None:
+        self.remove(renderer)
+        for prop in props:
+            if prop.IsA("vtkVolume"):
+                renderer.AddVolume(prop)
+            elif prop.IsA("vtkActor2D") or prop.IsA("vtkScalarBarActor"):
+                renderer.AddViewProp(prop)
+            else:
+                renderer.AddActor(prop)
+        self.props = list(props)
+
+    def react(self, change: str, renderer, inputs: ViewInputs) -> str:
+        """A shared input changed (``"iso"``, ``"transfer_function"``, ``"sample_distance"``, ``"background"``):
+        update props in place when that is cheap and say what else is needed (REBUILD, REDRAW, REFRAME, IGNORE)."""
+        return IGNORE
+
+    def status(self) -> str:
+        """One line for the view's header."""
+        return ""
+
+    def surface(self):
+        """The full-resolution surface on show (a :class:`~app.pipeline.surfaces.SurfaceResult`: ``vtkPolyData`` in
+        the volume frame and its statistics), or None."""
+        return None
+
+    # -- frames (software renderers) --------------------------------------------------------------------------------
+    def frame_work(self, renderer, camera: Camera, size: tuple[int, int]) -> Callable[..., Frame]:
+        """For :attr:`uses_frames` contents: the work that makes the frame of ``camera`` (world, LPS) at ``size``."""
+        raise TypeError(f"{type(self).__name__} draws with VTK, not frame by frame")
+
+    def show_frame(self, renderer, frame: Frame) -> None:
+        """Put a finished frame on ``renderer``."""
+        from .props import show_background_image
+
+        show_background_image(renderer, frame.image)
+
+    def close(self) -> None:
+        """Release resources that outlive the props (off-screen reference windows...)."""

@@ -1,0 +1,133 @@
+"""The workbench window's file actions: open volumes, meshes and DICOM folders (with the series choice), drag and
+drop, the recent files. A mixin of :class:`ui.main_window.MainWindow`, which provides the model, the task runner
+and the settings."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from qtpy.QtGui import QAction
+from qtpy.QtWidgets import QFileDialog, QMessageBox
+
+from app.io import READABLE_SUFFIXES, list_series
+from app.io.meshes import MESH_SUFFIXES_READ
+from app.volume import Volume
+from app.workbench import load_for_workbench
+
+from .dialogs import SeriesChooser
+from .tasks import Task
+
+MAX_RECENT = 8
+VOLUME_FILTER = ("Volumes and meshes (" + " ".join(f"*{s}" for s in READABLE_SUFFIXES + tuple(MESH_SUFFIXES_READ))
+                 + ");;Volumes (" + " ".join(f"*{s}" for s in READABLE_SUFFIXES) + ");;Meshes ("
+                 + " ".join(f"*{s}" for s in MESH_SUFFIXES_READ) + ");;All files (*)")
+
+
+class FileActions:
+    # -- opening ---------------------------------------------------------------------------------------------
+    def open_file_dialog(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Open volume or mesh", self._last_folder(), VOLUME_FILTER)
+        if path:
+            self.open_path(path)
+
+    def open_folder_dialog(self) -> None:
+        folder = QFileDialog.getExistingDirectory(self, "Open DICOM folder", self._last_folder())
+        if folder:
+            self.open_path(folder)
+
+    def open_path(self, path, series_uid: str | None = None) -> None:
+        """Load a file or DICOM folder in a worker; a folder with several series asks which one first."""
+        path = Path(path)
+        if path.is_dir() and series_uid is None:
+            task = Task(f"Scanning {path.name}", lambda progress=None: list_series(path))
+            task.finished.connect(lambda series: self._series_listed(path, series))
+            task.failed.connect(lambda exc: self._load_error(path, exc))
+            self.tasks.start(task)
+            return
+        task = Task(f"Loading {path.name}", load_for_workbench, path, series_uid=series_uid)
+        task.finished.connect(lambda volume: self._loaded(path, volume))
+        task.failed.connect(lambda exc: self._load_error(path, exc))
+        self.tasks.start(task)
+
+    def _series_listed(self, path: Path, series: list[dict]) -> None:
+        """Open the largest series, asking first only when another one is a real alternative (a stack of at least
+        a quarter of its images, not a localizer); scripted runs never ask."""
+        if not series:
+            self._load_error(path, ValueError("the folder holds no DICOM image series"))
+            return
+        alternatives = [s for s in series[1:] if s["slices"] >= max(2, series[0]["slices"] // 4)]
+        if alternatives and self.ask_for_series:
+            uid = SeriesChooser.ask(str(path), series, self)
+            if uid is None:
+                return
+        else:
+            uid = series[0]["series_uid"]
+        self.open_path(path, series_uid=uid)
+
+    def open_other_series(self) -> None:
+        """Choose another image series of the DICOM folder on show."""
+        volume = self.model.base_volume
+        folder = Path(volume.metadata.get("source_path", "")) if volume is not None else None
+        if folder is None or not folder.is_dir():
+            self._report_error("The volume on show is not a DICOM folder.", "No other series")
+            return
+        series = list_series(folder)
+        uid = SeriesChooser.ask(str(folder), series, self)
+        if uid is not None:
+            self.open_path(folder, series_uid=uid)
+
+    def _loaded(self, path: Path, data) -> None:
+        self._add_recent(path)
+        if isinstance(data, Volume):
+            self.model.set_volume(data)
+            warnings = data.metadata.get("warnings", [])
+        else:
+            warnings = self.model.add_mesh(data, path.name).metadata.get("warnings", [])
+        self.statusBar().showMessage(
+            f"Opened {path.name}" + (f" with {len(warnings)} warning(s): {warnings[0]}" if warnings else ""), 15000)
+        self.volume_loaded.emit(data)
+
+    def _load_error(self, path: Path, exc: Exception) -> None:
+        message = str(exc) or type(exc).__name__
+        self.load_failed.emit(message)
+        self._report_error(f"Could not open {path}:\n\n{message}", title="Could not open the volume")
+
+    def _report_error(self, message: str, title: str = "Voxelscope") -> None:
+        self.statusBar().showMessage(message.splitlines()[0], 15000)
+        box = QMessageBox(QMessageBox.Warning, title, message, QMessageBox.Ok, self)
+        box.setObjectName("error-dialog")
+        box.open()  # window-modal, does not block the event loop
+
+    def dragEnterEvent(self, event) -> None:  # noqa: N802 - Qt override
+        if event.mimeData().hasUrls():
+            event.acceptProposedAction()
+
+    def dropEvent(self, event) -> None:  # noqa: N802
+        paths = [url.toLocalFile() for url in event.mimeData().urls() if url.isLocalFile()]
+        if paths:
+            self.open_path(paths[0])
+            event.acceptProposedAction()
+
+    def _recent(self) -> list[str]:
+        value = self.settings.value("recent", [])
+        if isinstance(value, str):
+            value = [value]
+        return [str(v) for v in (value or [])]
+
+    def _add_recent(self, path: Path) -> None:
+        recent = [str(path)] + [p for p in self._recent() if p != str(path)]
+        self.settings.setValue("recent", recent[:MAX_RECENT])
+        self.settings.setValue("last_folder", str(path.parent if path.is_file() else path))
+        self._refresh_recent_menu()
+
+    def _refresh_recent_menu(self) -> None:
+        self.recent_menu.clear()
+        recent = self._recent()
+        for path in recent:
+            action = QAction(path, self)
+            action.triggered.connect(lambda _=False, p=path: self.open_path(p))
+            self.recent_menu.addAction(action)
+        self.recent_menu.setEnabled(bool(recent))
+
+    def _last_folder(self) -> str:
+        return str(self.settings.value("last_folder", str(Path.home())))
