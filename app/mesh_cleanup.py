@@ -8,11 +8,14 @@ agree with their surroundings.
 
 - :func:`smooth`: windowed-sinc low-pass (Taubin et al.), no shrinkage; ``vtkWindowedSincPolyDataFilter``.
 - :func:`decimate`: quadric error decimation (Garland & Heckbert 1997) preserving volume; ``vtkQuadricDecimation``.
+  A closed surface stays closed: when quadric decimation opens it, topology-preserving decimation
+  (``vtkDecimatePro``, no splitting, no boundary vertices removed) is used instead, and if that cannot keep it
+  closed either, decimation is refused with a message.
 - :func:`keep_largest_component`: drop islands (noise, loose fragments); ``vtkPolyDataConnectivityFilter``.
 - :func:`fill_small_holes`: close holes up to a size, e.g. where a surface meets the edge of the scan;
   ``vtkFillHolesFilter``.
-- :func:`validity_report`: watertight, manifold, outward, pieces, counts, area and volume, from
-  :mod:`algorithms.compare`.
+- :func:`validity_report`: watertight, manifold, outward, pieces, counts, area and volume (the definitions of
+  :mod:`algorithms.compare`, computed lean and with progress by :mod:`app.mesh_validity`).
 - :func:`apply`: the steps chosen for an export, in that order (largest piece, holes, smoothing, decimation).
 """
 
@@ -29,6 +32,7 @@ from algorithms.common.progress import ProgressCallback, report, scaled
 from algorithms.common.vtk_bridge import run_algorithm
 
 __all__ = [
+    "DecimationError",
     "ValidityReport",
     "apply",
     "decimate",
@@ -126,8 +130,14 @@ def smooth(polydata, iterations: int = 20, passband: float = 0.1, *, progress: P
     return _finish(result, _has_normals(polydata), scaled(progress, 0.9, 1.0))
 
 
-def decimate(polydata, target_reduction: float, *, progress: ProgressCallback = None) -> vtkPolyData:
-    """Reduce the number of triangles by quadric error decimation, preserving the enclosed volume.
+class DecimationError(ValueError):
+    """Decimation would open a closed surface (both quadric and topology-preserving decimation were tried)."""
+
+
+def decimate(polydata, target_reduction: float, *, progress: ProgressCallback = None,
+             notes: dict[str, Any] | None = None) -> vtkPolyData:
+    """Reduce the number of triangles by quadric error decimation, preserving the enclosed volume; a closed
+    surface stays closed.
 
     Parameters
     ----------
@@ -136,28 +146,68 @@ def decimate(polydata, target_reduction: float, *, progress: ProgressCallback = 
     target_reduction : float
         Fraction of triangles to remove, in [0, 1): 0.75 keeps about a quarter.
     progress : callable, optional
+    notes : dict, optional
+        Filled with ``decimation`` (the method used) and ``decimation_achieved`` (the fraction of triangles
+        removed), for the sidecar.
+
+    Raises
+    ------
+    DecimationError
+        The surface is closed (watertight) and neither decimation keeps it closed.
 
     Notes
     -----
-    M. Garland, P. S. Heckbert, "Surface simplification using quadric error metrics", SIGGRAPH 1997,
+    Quadric decimation collapses edges without checking the link condition, so on a closed surface with thin
+    parts (a skull's orbits, two voxels thick) it can make edges with one or three triangles. When the input is
+    watertight and the output is not, the surface is decimated again by ``vtkDecimatePro`` with topology
+    preserved, splitting off and boundary vertices kept (Schroeder, Zarge, Lorensen, "Decimation of triangle
+    meshes", SIGGRAPH 1992), which may remove fewer triangles than asked; if even that opens it, the step is
+    refused. M. Garland, P. S. Heckbert, "Surface simplification using quadric error metrics", SIGGRAPH 1997,
     doi:10.1145/258734.258849. Volume preservation as in Lindstrom & Turk 1998.
     """
-    return _quadric_decimation(polydata, target_reduction, progress)
+    return _decimation(polydata, target_reduction, progress, notes if notes is not None else {})
 
 
-def _quadric_decimation(polydata, target_reduction: float, progress: ProgressCallback) -> vtkPolyData:
+def _watertight(polydata) -> bool:
+    from .mesh_validity import edge_report
+
+    points, triangles = surface_compare.surface_arrays(polydata)
+    return edge_report(points.shape[0], triangles)[0].watertight
+
+
+def _decimation(polydata, target_reduction: float, progress: ProgressCallback, notes: dict) -> vtkPolyData:
     """:func:`decimate`'s body (also reached from :func:`apply`, whose ``decimate`` argument hides the name)."""
-    from vtkmodules.vtkFiltersCore import vtkQuadricDecimation
+    from vtkmodules.vtkFiltersCore import vtkDecimatePro, vtkQuadricDecimation
 
     polydata = _checked_polydata(polydata)
     if not np.isfinite(target_reduction) or not 0.0 <= target_reduction < 1.0:
         raise ValueError(f"target_reduction is the fraction of triangles to remove, in [0, 1); got {target_reduction!r}")
+    closed = _watertight(polydata)
+    report(progress, 0.1)
     decimator = vtkQuadricDecimation()
     decimator.SetInputData(polydata)
     decimator.SetTargetReduction(float(target_reduction))
     decimator.VolumePreservationOn()
-    result = _detached(run_algorithm(decimator, scaled(progress, 0.0, 0.9)))
-    return _finish(result, _has_normals(polydata), scaled(progress, 0.9, 1.0))
+    result = _detached(run_algorithm(decimator, scaled(progress, 0.1, 0.5)))
+    method = "quadric (vtkQuadricDecimation, volume preserving)"
+    if closed and not _watertight(result):
+        keeper = vtkDecimatePro()
+        keeper.SetInputData(polydata)
+        keeper.SetTargetReduction(float(target_reduction))
+        keeper.PreserveTopologyOn()
+        keeper.SplittingOff()
+        keeper.BoundaryVertexDeletionOff()
+        result = surface_compare.triangulated(_detached(run_algorithm(keeper, scaled(progress, 0.5, 0.85))))
+        method = "topology-preserving (vtkDecimatePro): quadric decimation would have opened the closed surface"
+        if not _watertight(result):
+            raise DecimationError(
+                f"decimating {100 * target_reduction:g} % of the triangles would open this closed surface (quadric "
+                "and topology-preserving decimation both leave holes); export without decimation or with a smaller "
+                "fraction")
+    before = polydata.GetNumberOfCells()
+    notes["decimation"] = method
+    notes["decimation_achieved"] = round(1.0 - result.GetNumberOfCells() / before, 4) if before else 0.0
+    return _finish(result, _has_normals(polydata), scaled(progress, 0.85, 1.0))
 
 
 def keep_largest_component(polydata, *, progress: ProgressCallback = None) -> vtkPolyData:
@@ -238,8 +288,10 @@ class ValidityReport:
         Counts.
     area_mm2 : float
         Surface area in mm^2.
-    volume_mm3 : float
-        Signed enclosed volume in mm^3 (meaningful when watertight).
+    volume_mm3 : float or None
+        Enclosed volume in mm^3: only for a watertight surface whose pieces all face outward (cavities inward),
+        where it is the volume of the solid; None otherwise (an open or inside-out surface encloses no volume, and
+        a number would be a guess).
     """
 
     watertight: bool
@@ -249,7 +301,7 @@ class ValidityReport:
     points: int
     triangles: int
     area_mm2: float
-    volume_mm3: float
+    volume_mm3: float | None
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -260,25 +312,36 @@ class ValidityReport:
             for name, ok in (("watertight", self.watertight), ("manifold", self.manifold),
                              ("outward", self.outward_normals))
         )
+        volume = (f"volume {self.volume_mm3:.1f} mm^3" if self.volume_mm3 is not None
+                  else "no enclosed volume (not watertight and outward)")
         return (f"{flags}; {self.components} piece(s), {self.points} points, {self.triangles} triangles, "
-                f"area {self.area_mm2:.1f} mm^2, volume {self.volume_mm3:.1f} mm^3")
+                f"area {self.area_mm2:.1f} mm^2, {volume}")
 
 
-def validity_report(polydata) -> ValidityReport:
-    """Topology, orientation, counts, area and volume of a triangle surface (see :class:`ValidityReport`)."""
+def validity_report(polydata, *, progress: ProgressCallback = None) -> ValidityReport:
+    """Topology, orientation, counts, area and volume of a triangle surface (see :class:`ValidityReport`).
+
+    Lean in memory and reporting progress (:func:`app.mesh_validity.validity_numbers`); the progress callback may
+    raise :class:`~algorithms.common.progress.OperationCancelled` to stop it.
+    """
+    from algorithms.common.vtk_bridge import polydata_arrays
+
+    from .mesh_validity import validity_numbers
+
     polydata = _checked_polydata(polydata)
-    points, triangles = surface_compare.surface_arrays(polydata)
-    edges = surface_compare.edge_manifoldness(points, triangles)
-    orientation = surface_compare.orientation_outward(points, triangles)
+    points, triangles = polydata_arrays(polydata)
+    numbers = validity_numbers(points, triangles, progress=progress)
+    edges = numbers["edges"]
+    outward = numbers["outward"] and edges.consistently_oriented
     return ValidityReport(
         watertight=edges.watertight,
         manifold=edges.manifold,
-        outward_normals=orientation.outward and edges.consistently_oriented,
-        components=orientation.components,
+        outward_normals=outward,
+        components=numbers["components"],
         points=int(points.shape[0]),
         triangles=int(triangles.shape[0]),
-        area_mm2=surface_compare.surface_area(points, triangles),
-        volume_mm3=surface_compare.enclosed_volume(points, triangles),
+        area_mm2=numbers["area_mm2"],
+        volume_mm3=numbers["volume_mm3"] if edges.watertight and outward else None,
     )
 
 
@@ -291,12 +354,15 @@ def apply(
     largest_component: bool = False,
     fill_holes_mm: float = 0.0,
     progress: ProgressCallback = None,
+    notes: dict[str, Any] | None = None,
 ) -> vtkPolyData:
     """Run the chosen clean-up steps in a sensible order: largest piece, fill holes, smooth, decimate.
 
     ``smooth_iterations=0``, ``decimate=0`` and ``fill_holes_mm=0`` skip those steps. With nothing chosen the
-    input is returned unchanged.
+    input is returned unchanged. ``notes`` receives what :func:`decimate` reports. Each step reports progress and
+    stops when the progress callback raises :class:`~algorithms.common.progress.OperationCancelled`.
     """
+    notes = notes if notes is not None else {}
     steps = []
     if largest_component:
         steps.append(lambda surface, p: keep_largest_component(surface, progress=p))
@@ -305,7 +371,7 @@ def apply(
     if smooth_iterations:
         steps.append(lambda surface, p: smooth(surface, smooth_iterations, smooth_passband, progress=p))
     if decimate:
-        steps.append(lambda surface, p: _quadric_decimation(surface, decimate, p))
+        steps.append(lambda surface, p: _decimation(surface, decimate, p, notes))
     for index, step in enumerate(steps):
         polydata = step(polydata, scaled(progress, index / len(steps), (index + 1) / len(steps)))
     report(progress, 1.0)

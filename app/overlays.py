@@ -4,7 +4,10 @@ coloured for display. Qt-free, so the slice views and the tests share it.
 - masks: the inside (value >= 0.5) in a translucent colour;
 - distance fields (mm, negative inside): a diverging map, blue inside to red outside, fading out beyond ``band_mm``,
   with the zero level (the surface) drawn solid;
-- label maps: one colour per label from a fixed palette (0 is transparent).
+- label maps: one colour per label from the map's colour table (:class:`app.labels.LabelTable`: ITK-SNAP, 3D Slicer,
+  AAL... files) or a generated distinct palette, at an adjustable opacity (0 is transparent).
+
+Values outside the field (NaN, as :func:`app.slices.sample_plane` returns them) are transparent.
 """
 
 from __future__ import annotations
@@ -26,8 +29,10 @@ def overlay_volume(base, field_item, *, progress=None):
     return volume.resampled(base.grid, order=order, fill=fill, progress=progress)
 
 
-def overlay_rgba(values: np.ndarray, role: str, *, band_mm: float | None = None) -> np.ndarray:
-    """Colours ``(..., 4)`` float32 in [0, 1] (straight alpha) for field values of a role."""
+def overlay_rgba(values: np.ndarray, role: str, *, band_mm: float | None = None, table=None,
+                 opacity: float | None = None) -> np.ndarray:
+    """Colours ``(..., 4)`` float32 in [0, 1] (straight alpha) for field values of a role. For labels, ``table`` (a
+    :class:`app.labels.LabelTable`) gives the colours and ``opacity`` their alpha (default 0.5)."""
     values = np.asarray(values)
     rgba = np.zeros(values.shape + (4,), dtype=np.float32)
     if role == "mask":
@@ -44,8 +49,15 @@ def overlay_rgba(values: np.ndarray, role: str, *, band_mm: float | None = None)
         rgba[..., 3] = DISTANCE_ALPHA * (1.0 - np.abs(t) ** 2)
         rgba[~finite] = 0.0
     elif role == "labels":
-        labels = values.astype(np.int64)
-        palette = label_palette(int(labels.max()) + 1 if labels.size else 1)
+        labels = np.where(np.isfinite(values), values, 0).astype(np.int64) if values.dtype.kind == "f" \
+            else values.astype(np.int64)
+        count = int(labels.max()) + 1 if labels.size else 1
+        alpha = 0.5 if opacity is None else float(opacity)
+        if table is not None:
+            palette = table.rgba(count, alpha)
+        else:
+            palette = label_palette(count)
+            palette[1:, 3] = alpha
         rgba[...] = palette[np.clip(labels, 0, len(palette) - 1)]
     else:
         raise ValueError(f"no overlay colours for a field of role {role!r}")

@@ -1,7 +1,9 @@
 """The bundled sample volumes and the names that reach them from the command line and the workbench.
 
 ``voxelscope gui sample`` (or ``info sample``, ``render sample`` ...) opens the CT head phantom; ``sample:mri``
-opens the Colin 27 brain MRI. The files live in the repository's ``sample_volumes/`` folder (see its README).
+opens the Colin 27 brain MRI. The phantom lives in the repository's ``sample_volumes/`` folder (see its README); the
+MRI is not copied into the repository but read where Debian's ``mricron-data`` package installs it (the set-up
+scripts install that package).
 ``python -m app.samples`` regenerates the phantom file from :func:`app.datasets.ct_head_phantom`, bit for bit.
 """
 
@@ -12,19 +14,27 @@ from pathlib import Path
 
 SAMPLE_FOLDER = Path(__file__).resolve().parent.parent / "sample_volumes"
 
-#: name -> (file name, description)
+#: Colin 27 as Debian's ``mricron-data`` installs it (``apt-get install mricron-data``).
+MRICRON_COLIN27 = Path("/usr/share/mricron/templates/ch2.nii.gz")
+
+#: name -> (file, description)
 SAMPLES = {
-    "ct": ("ct_head_phantom.nii.gz", "synthetic CT head phantom, 256x256x108, 0.94 x 0.94 x 2.0 mm, int16 HU"),
-    "mri": ("colin27_t1_ch2.nii.gz", "Colin 27 T1 brain MRI, 181x217x181, 1 mm, uint8"),
+    "ct": (SAMPLE_FOLDER / "ct_head_phantom.nii.gz",
+           "synthetic CT head phantom, 256x256x108, 0.94 x 0.94 x 2.0 mm, int16 HU"),
+    "mri": (MRICRON_COLIN27, "Colin 27 T1 brain MRI, 181x217x181, 1 mm, uint8 (Debian package mricron-data)"),
 }
 DEFAULT_SAMPLE = "ct"
 
 
 def sample_path(name: str = DEFAULT_SAMPLE) -> Path:
-    """Path of a bundled sample by short name (``ct`` or ``mri``)."""
+    """Path of a sample by short name (``ct`` or ``mri``); a one-line ``ValueError`` when it is not installed."""
     if name not in SAMPLES:
         raise ValueError(f"unknown sample {name!r}; choose one of {', '.join(SAMPLES)}")
-    return SAMPLE_FOLDER / SAMPLES[name][0]
+    path = SAMPLES[name][0]
+    if name == "mri" and not path.exists():
+        raise ValueError(f"the MRI sample ({path}) is not installed: it comes with Debian's mricron-data package; "
+                         "run 'sudo apt-get install mricron-data' (scripts/voxelscope does it for you)")
+    return path
 
 
 def resolve_path(text: str) -> Path:

@@ -215,8 +215,17 @@ class Volume:
         With ``local=False`` the image carries origin and direction (VTK >= 9 honours them in filters). With
         ``local=True`` it sits in the volume frame (origin 0, identity direction); combine it with
         :attr:`local_to_world` as a prop's user matrix for rendering.
+
+        The image shares the volume's memory (no copy: a 512^3 int16 volume is not held twice). So that nothing
+        writes through it unnoticed, :attr:`array` becomes a read-only view of the same memory here (a volume's
+        values never change in place: derived data are new volumes; the caller's own array object is left as it
+        was), and our filters read VTK's scalars as read-only views. A non-contiguous array is copied once instead.
         """
-        image = image_from_array(self.array, self.spacing, (0.0, 0.0, 0.0) if local else self.origin, name)
+        if self.array.flags.c_contiguous and self.array.flags.writeable:
+            self.array = self.array.view()
+            self.array.flags.writeable = False
+        image = image_from_array(self.array, self.spacing, (0.0, 0.0, 0.0) if local else self.origin, name,
+                                 share=True)
         if not local:
             image.SetDirectionMatrix(*self.direction.ravel())
         return image

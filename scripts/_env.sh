@@ -5,7 +5,8 @@
 VOXELSCOPE_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VOXELSCOPE_VENV="${VOXELSCOPE_VENV:-$VOXELSCOPE_ROOT/.venv}"
 
-# X server for tests, and the X/EGL/GL libraries Qt (xcb platform) and VTK need on a fresh Debian machine.
+# X server for tests, and the X/EGL/GL libraries Qt (xcb platform) and VTK need on a fresh Debian machine; mricron-data
+# holds real atlases (AAL label volume) that the label-volume tests and screenshots use.
 VOXELSCOPE_APT_PACKAGES=(
   python3 python3-venv python3-pip
   xvfb xauth
@@ -14,6 +15,7 @@ VOXELSCOPE_APT_PACKAGES=(
   libxcb-render-util0 libxcb-shape0 libxcb-xinerama0 libxcb-xkb1 libxcb-xfixes0 libxcb-shm0 libxcb-sync1
   libx11-xcb1 libxrender1 libxi6 libxtst6 libxext6 libsm6 libice6
   libdbus-1-3 libfontconfig1 libfreetype6 fonts-dejavu-core
+  mricron-data
 )
 
 voxelscope_install_system_packages() {

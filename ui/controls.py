@@ -1,6 +1,8 @@
 """The control panel: volume facts, isovalue with histogram, transfer function (preset and curve), shading,
-window/level, and the view layout. Every control writes through the :class:`app.workbench.WorkbenchModel`'s
-setters and follows its signals; nothing is computed here."""
+window/level with presets for the volume's modality, slice interpolation and label opacity, and the view layout.
+Every control writes through the :class:`app.workbench.WorkbenchModel`'s setters and follows its signals; nothing
+is computed here. Presets made for another modality (CT presets on MR data) are listed apart and, when chosen
+anyway, applied with a visible warning."""
 
 from __future__ import annotations
 
@@ -24,17 +26,12 @@ from qtpy.QtWidgets import (
 
 from app.pipeline import STANDARD_VIEWS
 from app.transfer import PRESETS
-from app.workbench import LAYOUTS, WorkbenchModel
+from app.workbench import CT_WINDOWS, INTERPOLATIONS, LAYOUTS, WorkbenchModel, presets_for, window_presets
 
 from .curves import HistogramWidget, TransferFunctionEditor
 
 SLIDER_STEPS = 1000
-CT_WINDOWS = {  # name -> (window, level) in HU
-    "Soft tissue": (400.0, 40.0),
-    "Brain": (80.0, 40.0),
-    "Bone": (1800.0, 400.0),
-    "Lung": (1500.0, -600.0),
-}
+__all__ = ["ControlPanel", "CT_WINDOWS"]
 
 
 class ControlPanel(QWidget):
@@ -80,13 +77,18 @@ class ControlPanel(QWidget):
         tf_box = QGroupBox("Transfer function")
         tf_layout = QVBoxLayout(tf_box)
         self.preset_box = QComboBox()
-        for name, preset in PRESETS.items():
-            self.preset_box.addItem(name, name)
-            self.preset_box.setItemData(self.preset_box.count() - 1, preset.description, Qt.ToolTipRole)
+        self.preset_box.setObjectName("preset")
+        self._fill_presets(list(PRESETS), [])
+        self.preset_warning = QLabel("")
+        self.preset_warning.setObjectName("preset-warning")
+        self.preset_warning.setWordWrap(True)
+        self.preset_warning.setStyleSheet("color: #e0a020;")
+        self.preset_warning.hide()
         self.curve = TransferFunctionEditor()
         self.curve.setToolTip("Opacity: drag a point to move it, double-click to add one, right-click to remove one.\n"
                               "Colour: drag a marker under the colour bar, double-click it to choose its colour.")
         tf_layout.addWidget(self.preset_box)
+        tf_layout.addWidget(self.preset_warning)
         tf_layout.addWidget(self.curve)
         layout.addWidget(tf_box)
 
@@ -115,12 +117,23 @@ class ControlPanel(QWidget):
             spin.setKeyboardTracking(False)
         self.window_spin.setMinimum(0.1)
         self.window_presets = QComboBox()
+        self.window_presets.setObjectName("window-presets")
         self.window_presets.addItem("Presets...")
-        for name, (window, level) in CT_WINDOWS.items():
-            self.window_presets.addItem(f"{name} ({window:g}/{level:g} HU)", (window, level))
         wl_layout.addRow("Window", self.window_spin)
         wl_layout.addRow("Level", self.level_spin)
         wl_layout.addRow(self.window_presets)
+        self.interpolation_box = QComboBox()
+        self.interpolation_box.setObjectName("interpolation")
+        for name in INTERPOLATIONS:
+            self.interpolation_box.addItem(name, name)
+        self.interpolation_box.setToolTip("How the slice views sample the volume (linear: trilinear)")
+        wl_layout.addRow("Interpolation", self.interpolation_box)
+        self.label_opacity = QSlider(Qt.Horizontal)
+        self.label_opacity.setObjectName("label-opacity")
+        self.label_opacity.setRange(0, 100)
+        self.label_opacity.setValue(int(round(model.label_opacity * 100)))
+        self.label_opacity.setToolTip("Opacity of label colours over the grey values")
+        wl_layout.addRow("Label opacity", self.label_opacity)
         layout.addWidget(wl_box)
 
         # Views
@@ -156,13 +169,16 @@ class ControlPanel(QWidget):
         self.iso_spin.valueChanged.connect(self._iso_set)
         self.histogram.iso_dragged.connect(self._iso_moved)
         self.histogram.iso_released.connect(self._iso_set)
-        self.preset_box.activated.connect(lambda _: self.model.set_preset(self.preset_box.currentData()))
+        self.preset_box.activated.connect(self._preset_chosen)
         self.curve.points_changed.connect(self.model.set_opacity_points)
         self.curve.color_points_changed.connect(self.model.set_color_points)
         self.shading_check.toggled.connect(lambda on: self.model.set_shading(enabled=on))
         self.window_spin.valueChanged.connect(lambda w: self.model.set_window_level(w, self.model.level))
         self.level_spin.valueChanged.connect(lambda level: self.model.set_window_level(self.model.window, level))
         self.window_presets.activated.connect(self._window_preset)
+        self.interpolation_box.activated.connect(
+            lambda _: self.model.set_interpolation(self.interpolation_box.currentData()))
+        self.label_opacity.valueChanged.connect(lambda value: self.model.set_label_opacity(value / 100.0))
 
         # Model -> controls
         model.item_changed.connect(self._item_changed)
@@ -171,6 +187,7 @@ class ControlPanel(QWidget):
         model.window_level_changed.connect(self._window_level_changed)
         model.layout_changed.connect(self._layout_changed)
         model.cameras_linked_changed.connect(self.link_check.setChecked)
+        model.slice_display_changed.connect(self._display_changed)
         self._layout_changed(model.layout)
         self.link_check.setChecked(model.cameras_linked)
         self.setEnabled(False)
@@ -232,7 +249,12 @@ class ControlPanel(QWidget):
             self.iso_spin.setRange(lo, hi)
         for spin in (self.window_spin, self.level_spin):
             spin.setSuffix(f" {volume.units_label}")
-        self.window_presets.setEnabled(volume.units == "HU")
+        self.window_presets.clear()
+        self.window_presets.addItem("Presets...")
+        for name, (window, level) in window_presets(volume).items():
+            self.window_presets.addItem(f"{name} ({window:g}/{level:g} {volume.units_label})", (window, level))
+        suitable = presets_for(volume)
+        self._fill_presets(suitable, [name for name in PRESETS if name not in suitable])
         self._iso_changed(self.model.iso)
         self._transfer_function_changed(self.model.transfer_function)
         self._window_level_changed(self.model.window, self.model.level)
@@ -244,6 +266,10 @@ class ControlPanel(QWidget):
         position = self.preset_box.findData(self.model.preset)
         with _blocked(self.preset_box):
             self.preset_box.setCurrentIndex(max(position, 0))
+        warning = self.model.preset_warning()
+        self.preset_warning.setText(f"Warning: {warning}; colours and opacities may not fit these values."
+                                    if warning else "")
+        self.preset_warning.setVisible(bool(warning))
         self.curve.set_function(function, volume.value_range, volume.units_label)
         with _blocked(self.shading_check):
             self.shading_check.setChecked(function.shading.enabled)
@@ -252,8 +278,43 @@ class ControlPanel(QWidget):
                 slider.setValue(int(round(getattr(function.shading, name) * 100)))
             slider.setEnabled(function.shading.enabled)
 
+    def _fill_presets(self, suitable: list[str], others: list[str]) -> None:
+        """The presets made for the volume's modality, then the others under a heading (chosen with a warning)."""
+        from qtpy.QtGui import QStandardItem, QStandardItemModel
+
+        model = QStandardItemModel(self.preset_box)
+        for name in suitable:
+            entry = QStandardItem(name)
+            entry.setData(name, Qt.UserRole)
+            entry.setToolTip(PRESETS[name].description)
+            model.appendRow(entry)
+        if others:
+            heading = QStandardItem("Made for another modality:")
+            heading.setFlags(Qt.NoItemFlags)
+            model.appendRow(heading)
+            for name in others:
+                entry = QStandardItem(f"   {name} (for {PRESETS[name].units or 'other'} values)")
+                entry.setData(name, Qt.UserRole)
+                entry.setData(True, Qt.UserRole + 1)
+                entry.setToolTip(PRESETS[name].description + " - not made for this volume's values")
+                model.appendRow(entry)
+        with _blocked(self.preset_box):
+            self.preset_box.setModel(model)
+
+    def _preset_chosen(self, index: int) -> None:
+        name = self.preset_box.itemData(index)
+        if name:
+            forced = bool(self.preset_box.itemData(index, Qt.UserRole + 1))
+            self.model.set_preset(name, force=forced)
+
     def _shading_term(self, name: str, value: float) -> None:
         self.model.set_shading(**{name: value})
+
+    def _display_changed(self) -> None:
+        with _blocked(self.interpolation_box):
+            self.interpolation_box.setCurrentIndex(max(self.interpolation_box.findData(self.model.interpolation), 0))
+        with _blocked(self.label_opacity):
+            self.label_opacity.setValue(int(round(self.model.label_opacity * 100)))
 
     def _window_level_changed(self, window: float, level: float) -> None:
         with _blocked(self.window_spin):

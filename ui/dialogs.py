@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from qtpy.QtCore import Qt
 from qtpy.QtWidgets import (
     QCheckBox,
     QComboBox,
@@ -26,13 +27,20 @@ class SeriesChooser(QDialog):
         layout = QVBoxLayout(self)
         layout.addWidget(QLabel(f"{folder} holds {len(series)} image series. Which one should be opened?"))
         self.list = QListWidget()
+        first = None
         for item in series:
             text = (f"{item['description'] or 'no description'}  |  {item['modality'] or '?'}  |  "
                     f"{item['slices']} images of {item['columns']}x{item['rows']}  |  {item['series_uid']}")
             entry = QListWidgetItem(text)
             entry.setData(256, item["series_uid"])
+            if not item.get("loadable", True):  # shown, greyed out, with the reason it cannot be opened
+                entry.setText(f"{text}\n      cannot be opened: {item['reason']}")
+                entry.setFlags(entry.flags() & ~Qt.ItemIsEnabled & ~Qt.ItemIsSelectable)
+                entry.setToolTip(item["reason"])
+            elif first is None:
+                first = self.list.count()
             self.list.addItem(entry)
-        self.list.setCurrentRow(0)
+        self.list.setCurrentRow(first if first is not None else -1)
         self.list.itemDoubleClicked.connect(lambda _: self.accept())
         layout.addWidget(self.list)
         buttons = QDialogButtonBox(QDialogButtonBox.Open | QDialogButtonBox.Cancel)

@@ -1,50 +1,47 @@
-"""The Voxelscope workbench window: a grid of linked 3D views, three slice views, the control panel, file and
-export actions, and a status bar with progress and Cancel for long work."""
+"""The Voxelscope workbench window: a grid of linked 3D views beside three large slice views (any view can be shown
+alone), the docks (controls, scene, measurements, provenance), file, session, label and export actions, measuring
+tools, undo/redo, and a status bar with progress and Cancel for long work.
+
+The window is assembled from mixins, one concern each: :mod:`.window_layout` (views, docks, View menu),
+:mod:`.window_files` (opening), :mod:`.window_export` (meshes, screenshots), :mod:`.window_scene` (operations,
+overlays), :mod:`.window_tools` (measurements, labels, provenance, undo) and :mod:`.window_session` (sessions).
+"""
 
 from __future__ import annotations
 
-from qtpy.QtCore import QByteArray, QSettings, Qt, QTimer, Signal
+import numpy as np
+from qtpy.QtCore import QByteArray, QSettings, QTimer, Signal
 from qtpy.QtGui import QAction, QActionGroup, QKeySequence
-from qtpy.QtWidgets import (
-    QApplication,
-    QDockWidget,
-    QGridLayout,
-    QHBoxLayout,
-    QLabel,
-    QMainWindow,
-    QMessageBox,
-    QProgressBar,
-    QPushButton,
-    QScrollArea,
-    QWidget,
-)
+from qtpy.QtWidgets import QApplication, QLabel, QMainWindow, QMessageBox, QProgressBar, QPushButton
 
 from algorithms.common.camera import Camera
+from app.framing import framing_camera
 from app.modes import get_mode
 from app.operations import operations
-from app.pipeline import default_camera, view_inputs
-from app.samples import sample_path
+from app.pipeline import view_inputs
 from app.workbench import LAYOUTS, MAX_VIEWS, WorkbenchModel
 
 from .camera_link import CameraLink
-from .controls import ControlPanel
 from .render_view import RenderView
-from .scene_panel import ScenePanel
+from .tasks import Task, TaskRunner
+from .window_cutaways import CutawayActions
 from .window_export import ExportActions
 from .window_files import FileActions
+from .window_layout import LayoutActions
 from .window_scene import SceneActions
-from .slice_view import SliceView
-from .tasks import Task, TaskRunner
+from .window_session import SessionActions
+from .window_tools import ToolActions
 
 
-
-class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
+class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolActions, SessionActions, CutawayActions,
+                 QMainWindow):
     """The workbench. ``settings`` defaults to the user's Voxelscope settings (tests pass a temporary file)."""
 
     all_views_ready = Signal()
     volume_loaded = Signal(object)
     load_failed = Signal(str)
     operation_finished = Signal(object)  # the new scene item
+    session_opened = Signal(str)  # the session file, once its data and state are restored
 
     def __init__(self, settings: QSettings | None = None, parent=None) -> None:
         super().__init__(parent)
@@ -56,14 +53,9 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
         self.active_view = 0
         self.ask_for_series = True  # False in scripted runs: open the largest series without a dialog
 
-        # Views
         self.views: list[RenderView] = []
-        self.grid_widget = QWidget()
-        self.grid = QGridLayout(self.grid_widget)
-        self.grid.setContentsMargins(0, 0, 0, 0)
-        self.grid.setSpacing(2)
         for index in range(MAX_VIEWS):
-            view = RenderView(index, self.tasks, self.grid_widget)
+            view = RenderView(index, self.tasks)
             view.plotter.setAcceptDrops(False)  # drops open volumes in the window, not meshes in a view
             view.mode_chosen.connect(self.model.set_view_mode)
             view.options_chosen.connect(lambda index, values: self.model.set_view_options(index, **values))
@@ -72,47 +64,40 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
             view.failed.connect(self._report_error)
             self.camera_link.attach(view)
             self.views.append(view)
-        self.setCentralWidget(self.grid_widget)
         self.camera_link.camera_moved.connect(self._camera_moved)
+        self._build_views()  # window_layout: grid of 3D views, slice views, splitter, docks
+        self._build_status_bar()
+        self._build_tools()  # window_tools: undo stack, measuring tools, panels
+        self._build_cutaways()  # window_cutaways: cut-away tools, their widgets and list (issue 15)
+        self._build_menus()
+        self.setAcceptDrops(True)
 
-        # Slice views
-        slices = QWidget()
-        slice_layout = QHBoxLayout(slices)
-        slice_layout.setContentsMargins(0, 0, 0, 0)
-        self.slice_views = {plane: SliceView(plane) for plane in ("axial", "coronal", "sagittal")}
-        for view in self.slice_views.values():
-            view.cursor_picked.connect(self._cursor_picked)
-            view.window_level_dragged.connect(self.model.set_window_level)
-            slice_layout.addWidget(view)
-        self.slice_dock = QDockWidget("Slices", self)
-        self.slice_dock.setObjectName("slices")
-        self.slice_dock.setWidget(slices)
-        self.addDockWidget(Qt.BottomDockWidgetArea, self.slice_dock)
+        # Model -> window
+        self.model.item_changed.connect(self._item_changed)
+        self.model.volume_changed.connect(self._volume_changed)
+        self.model.scene.item_added.connect(lambda item: self._overlays_changed())
+        self.model.scene.item_removed.connect(lambda item: self._overlays_changed())
+        self.model.scene.item_changed.connect(lambda item: self._overlays_changed())
+        self.model.iso_changed.connect(lambda iso: self._each_visible(lambda v: v.set_iso(iso)))
+        self.model.transfer_function_changed.connect(
+            lambda tf: self._each_visible(lambda v: v.set_transfer_function(tf)))
+        self.model.layout_changed.connect(self._apply_layout)
+        self.model.view_mode_changed.connect(self._view_mode_changed)
+        self.model.view_options_changed.connect(lambda index, options: self.views[index].set_options(options))
+        self.model.cameras_linked_changed.connect(self.camera_link.set_linked)
+        self.model.cursor_changed.connect(self._cursor_changed)
+        self.model.slice_rotation_changed.connect(self._rotation_changed)
+        self.model.slice_display_changed.connect(self._slice_display_changed)
+        self.model.window_level_changed.connect(
+            lambda w, level: [v.set_window_level(w, level) for v in self.slice_views.values()])
+        self.model.notice.connect(lambda text: self.statusBar().showMessage(text, 30000))
 
-        # Controls
-        self.controls = ControlPanel(self.model)
-        self.controls.iso_preview.connect(self._iso_preview)
-        self.controls.reset_camera.connect(self.reset_camera)
-        scroll = QScrollArea()
-        scroll.setWidgetResizable(True)
-        scroll.setWidget(self.controls)
-        self.control_dock = QDockWidget("Controls", self)
-        self.control_dock.setObjectName("controls")
-        self.control_dock.setWidget(scroll)
-        self.control_dock.setMinimumWidth(300)
-        self.addDockWidget(Qt.RightDockWidgetArea, self.control_dock)
+        self._remember_default_layout()
+        self._restore_settings()
+        self._apply_layout(self.model.layout)
 
-        # Scene: the items, which one the views show
-        self.scene_panel = ScenePanel(self.model)
-        self.scene_panel.show_requested.connect(lambda name: self.model.show_item(self.model.scene.get(name)))
-        self.scene_panel.remove_requested.connect(self._remove_item)
-        self.scene_dock = QDockWidget("Scene", self)
-        self.scene_dock.setObjectName("scene")
-        self.scene_dock.setWidget(self.scene_panel)
-        self.addDockWidget(Qt.RightDockWidgetArea, self.scene_dock)
-        self._overlay_cache: dict[str, tuple] = {}
-
-        # Status bar: message, progress, cancel
+    # -- status bar ----------------------------------------------------------------------------------------------
+    def _build_status_bar(self) -> None:
         self.progress = QProgressBar()
         self.progress.setRange(0, 100)
         self.progress.setTextVisible(False)
@@ -135,45 +120,36 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
         self.tasks.started.connect(self._task_started)
         self.tasks.ended.connect(self._task_ended)
 
-        self._build_menus()
-        self.setAcceptDrops(True)
-
-        # Model -> window
-        self.model.item_changed.connect(self._item_changed)
-        self.model.volume_changed.connect(self._volume_changed)
-        self.model.scene.item_added.connect(lambda item: self._overlays_changed())
-        self.model.scene.item_removed.connect(lambda item: self._overlays_changed())
-        self.model.scene.item_changed.connect(lambda item: self._overlays_changed())
-        self.model.iso_changed.connect(lambda iso: self._each_visible(lambda v: v.set_iso(iso)))
-        self.model.transfer_function_changed.connect(
-            lambda tf: self._each_visible(lambda v: v.set_transfer_function(tf)))
-        self.model.layout_changed.connect(self._apply_layout)
-        self.model.view_mode_changed.connect(self._view_mode_changed)
-        self.model.view_options_changed.connect(lambda index, options: self.views[index].set_options(options))
-        self.model.cameras_linked_changed.connect(self.camera_link.set_linked)
-        self.model.cursor_changed.connect(lambda p: [v.set_cursor(p) for v in self.slice_views.values()])
-        self.model.window_level_changed.connect(
-            lambda w, level: [v.set_window_level(w, level) for v in self.slice_views.values()])
-
-        self._restore_settings()
-        self._apply_layout(self.model.layout)
-
     # -- menus ------------------------------------------------------------------------------------------------
     def _build_menus(self) -> None:
         file_menu = self.menuBar().addMenu("&File")
         self.open_action = self._action(file_menu, "&Open volume or mesh...", self.open_file_dialog,
                                         QKeySequence.Open)
         self._action(file_menu, "Open &DICOM folder...", self.open_folder_dialog, "Ctrl+D")
-        self._action(file_menu, "Open another series of this &folder...", self.open_other_series)
-        self._action(file_menu, "Open &sample CT", lambda: self.open_path(sample_path("ct")))
-        self._action(file_menu, "Open sample &MRI", lambda: self.open_path(sample_path("mri")))
+        self.other_series_action = self._action(file_menu, "Open another series of this &folder...",
+                                                self.open_other_series)
+        self.other_series_action.setEnabled(False)
+        self._action(file_menu, "Open &label volume (atlas, segmentation)...", self.open_labels_dialog, "Ctrl+L")
+        self._action(file_menu, "Load &colour table for the labels...", self.load_color_table_dialog)
+        self._action(file_menu, "Open &sample CT", lambda: self.open_sample("ct"))
+        self._action(file_menu, "Open sample &MRI", lambda: self.open_sample("mri"))
         self.recent_menu = file_menu.addMenu("&Recent")
         file_menu.addSeparator()
+        self._action(file_menu, "Open s&ession...", self.open_session_dialog, "Ctrl+Shift+O")
+        self._action(file_menu, "Sa&ve session...", self.save_session_dialog, "Ctrl+Shift+V")
+        file_menu.addSeparator()
         self._action(file_menu, "&Export mesh of the active view...", self.export_mesh, "Ctrl+E")
+        self._action(file_menu, "Export one mesh &per label...", self.export_label_meshes_dialog)
+        self._action(file_menu, "Export &cropped volume (keep box)...", self.export_cropped_volume_dialog)
+        self._action(file_menu, "Export &measurements as CSV...", self.export_measurements_dialog)
         self._action(file_menu, "Save screenshot of the active &view...", self.save_view_screenshot)
         self._action(file_menu, "Save screenshot of &all views...", self.save_grid_screenshot, "Ctrl+Shift+S")
         file_menu.addSeparator()
         self._action(file_menu, "&Quit", self.close, QKeySequence.Quit)
+
+        edit_menu = self.menuBar().addMenu("&Edit")
+        edit_menu.addAction(self.undo_action)
+        edit_menu.addAction(self.redo_action)
 
         operations_menu = self.menuBar().addMenu("&Operations")
         group_menus: dict[str, object] = {}
@@ -184,6 +160,12 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
             action = self._action(menu, operation.label + "...", lambda _=False, n=operation.name: self.run_operation(n))
             action.setToolTip(operation.description)
 
+        measure_menu = self.menuBar().addMenu("&Measure")
+        for action in self.tool_actions.values():
+            measure_menu.addAction(action)
+        measure_menu.addSeparator()
+        self._action(measure_menu, "&Statistics inside a mask...", self.mask_statistics_dialog)
+
         view_menu = self.menuBar().addMenu("&View")
         group = QActionGroup(self)
         self.layout_actions = {}
@@ -192,6 +174,16 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
             action.setCheckable(True)
             group.addAction(action)
             self.layout_actions[name] = action
+        self.enlarge_action = self._action(view_menu, "&One big view (the active view alone)",
+                                           lambda: self.toggle_enlarged(self._active_widget()), "F11")
+        view_menu.addSeparator()
+        for dock in self.docks:
+            view_menu.addAction(dock.toggleViewAction())
+        view_menu.addAction(self.tools_toolbar.toggleViewAction())
+        self.slices_action = self._action(view_menu, "Slice views", self._toggle_slice_column)
+        self.slices_action.setCheckable(True)
+        self.slices_action.setChecked(True)
+        self._action(view_menu, "Reset &layout", self.reset_window_layout)
         view_menu.addSeparator()
         self.link_action = self._action(view_menu, "&Link cameras", self.model.set_cameras_linked)
         self.link_action.setCheckable(True)
@@ -202,6 +194,7 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
         self._action(view_menu, "&Reset camera", lambda: self.reset_camera("anterior"), "R")
         for name in ("anterior", "posterior", "left", "right", "superior", "inferior"):
             self._action(view_menu, f"{name.capitalize()} view", lambda _=False, n=name: self.reset_camera(n))
+        self._action(view_menu, "Reset &oblique slices", lambda: self.model.set_slice_rotation(np.eye(3)))
         help_menu = self.menuBar().addMenu("&Help")
         self._action(help_menu, "&About Voxelscope", self._about)
 
@@ -233,14 +226,23 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
         model = self.model
         inputs = view_inputs(model.item, iso=model.iso if model.volume is not None else None)
         inputs.transfer_function = model.transfer_function or inputs.transfer_function
+        if getattr(model.item, "volume", None) is not None:  # cut-away tools (issue 15)
+            inputs.tools, inputs.cut_evaluation = tuple(self.selection.tools), self.selection.evaluation
         view.show_item(inputs, model.view_modes[view.index], model.view_options[view.index])
         view.pipeline.set_overlays([item for item in model.scene if item is not model.item])
 
     def _volume_changed(self, volume) -> None:
+        table = volume.metadata.get("label_table")
         for view in self.slice_views.values():
-            view.set_volume(volume, self.model.cursor, self.model.window, self.model.level)
+            view.set_rotation(self.model.slice_rotation)
+            view.set_volume(volume, self.model.cursor, self.model.window, self.model.level, table=table)
+        source = volume.metadata.get("source_path", "")
+        self.other_series_action.setEnabled(volume.metadata.get("source_format", "").startswith("DICOM")
+                                            and bool(source))
         self._overlay_cache.clear()
         self._update_slice_overlays()
+        self._update_slice_planes()
+        self.provenance_panel.show_volume(volume)
 
     def _view_mode_changed(self, index: int, mode: str, options: dict) -> None:
         view = self.views[index]
@@ -249,22 +251,6 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
         else:
             view.set_mode(mode, self.model.view_options[index])
         self.settings.setValue("modes", ",".join(self.model.view_modes))
-
-    def _apply_layout(self, layout: str) -> None:
-        rows, columns = LAYOUTS[layout]
-        for view in self.views:
-            self.grid.removeWidget(view)
-        for index, view in enumerate(self.views):
-            visible = index < rows * columns
-            view.setVisible(visible)
-            if visible:
-                self.grid.addWidget(view, index // columns, index % columns)
-                if self.model.item is not None and (view.item is not self.model.item
-                                                    or view.mode != self.model.view_modes[index]):
-                    self._show_in(view)
-        if layout in getattr(self, "layout_actions", {}):
-            self.layout_actions[layout].setChecked(True)
-        self.settings.setValue("layout", layout)
 
     def _each_visible(self, action) -> None:
         for view in self.views[: self.model.view_count]:
@@ -278,6 +264,31 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
         if self.model.base_volume is not None:
             self.model.set_cursor(point)
 
+    def _cursor_changed(self, point) -> None:
+        for view in self.slice_views.values():
+            view.set_cursor(point)
+        self._update_slice_planes()
+
+    def _rotation_changed(self, rotation) -> None:
+        for view in self.slice_views.values():
+            view.set_rotation(rotation)
+        self._update_slice_planes()
+
+    def _slice_display_changed(self) -> None:
+        for view in self.slice_views.values():
+            view.set_display(self.model.interpolation, self.model.label_opacity)
+
+    def _update_slice_planes(self) -> None:
+        """The crosshair's planes drawn in every 3D view (outlines where they cut the volume)."""
+        from app.slices import PLANE_COLORS, plane_outlines_polydata
+
+        volume = self.model.base_volume
+        if volume is None:
+            return
+        outlines = plane_outlines_polydata(volume, self.model.cursor, self.model.slice_rotation)
+        for view in self.views:
+            view.set_slice_planes(outlines, PLANE_COLORS)
+
     def _set_active_view(self, index: int) -> None:
         self.active_view = index
         for view in self.views:
@@ -285,14 +296,15 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
 
     # -- cameras ----------------------------------------------------------------------------------------------
     def reset_camera(self, side: str = "anterior", *, all_views: bool = False) -> None:
-        """Look at the volume from a standard side, the whole box in view (every view following the active one)."""
+        """Look at the object from a standard side, fitted tightly (every view following the active one)."""
         item = self.model.item
         if item is None:
             return
         view = self.views[self.active_view]
         width, height = view.plotter.ren_win.GetSize()
-        camera = default_camera(item, view=side, aspect=max(width, 1) / max(height, 1),
-                                parallel=self.parallel_action.isChecked())
+        camera = framing_camera(item, iso=self.model.iso if self.model.volume is not None else None,
+                                transfer_function=self.model.transfer_function, view=side,
+                                aspect=max(width, 1) / max(height, 1), parallel=self.parallel_action.isChecked())
         targets = self.views if all_views else self.camera_link.views_following(view)
         for target in targets:
             camera.apply_to_vtk(target.renderer.GetActiveCamera())
@@ -322,9 +334,32 @@ class MainWindow(FileActions, ExportActions, SceneActions, QMainWindow):
             self.all_views_ready.emit()
 
     def views_ready(self) -> bool:
-        visible = self.views[: self.model.view_count]
+        """Every 3D view on show has drawn the full-quality frame of its current content."""
+        visible = [view for view in self.views[: self.model.view_count] if not view.isHidden()]
         return (self.model.item is not None and not self.camera_link.pending
                 and all(view.is_ready for view in visible))
+
+    def settle_layout(self) -> None:
+        """Let every pending layout request and paint of the window's widgets (panels, docks, slice views) run."""
+        from qtpy.QtCore import QEvent
+
+        app = QApplication.instance()
+        for _ in range(3):
+            app.sendPostedEvents(None, QEvent.LayoutRequest)
+            app.processEvents()
+
+    def fully_ready(self) -> bool:
+        """Ready for a screenshot: every 3D view drew its full-quality frame, no background work is left, every
+        slice view painted its current image, every dock on show has its size."""
+        if not self.views_ready() or self.tasks.running:
+            return False
+        for view in self.slice_views.values():
+            if view.isVisible() and view.volume is not None and not view.painted:
+                return False
+        for dock in self.docks:
+            if dock.isVisible() and not dock.isFloating() and min(dock.widget().width(), dock.widget().height()) < 2:
+                return False
+        return True
 
     # -- progress ------------------------------------------------------------------------------------------------
     def _task_started(self, task: Task) -> None:
@@ -402,3 +437,4 @@ def application(argv=None) -> QApplication:
         app.setOrganizationName("Voxelscope")
         app.setApplicationName("Voxelscope")
     return app
+

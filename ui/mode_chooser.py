@@ -20,7 +20,7 @@ class ModeChooser(QComboBox):
         self.setModel(QStandardItemModel(self))
         # A bounded width: a view's header must not force a minimum window size; the list pops up wider.
         self.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
-        self.setMinimumContentsLength(22)
+        self.setMinimumContentsLength(14)
         self.view().setMinimumWidth(380)
         self.activated.connect(self._activated)
         self._fill(modes())

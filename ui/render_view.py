@@ -5,6 +5,10 @@ What the view shows is decided by the shared view pipeline of ``app`` (:class:`a
 same one ``voxelscope render`` uses; this widget only hosts it: it gives the pipeline the renderer, a job runner on
 the workbench's thread pool and the viewport size, renders when the pipeline asks, and forwards camera movement
 and rest. Nothing here depends on what kind of mode is on show.
+
+Beside the content it draws the three slice planes' outlines (the crosshair of the slice views, in 3D Slicer's
+colours) and the distance and angle measurements; with a measuring tool chosen, a click picks the surface point
+under the pointer instead of turning the camera.
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from typing import Any
 
 import numpy as np
 from pyvistaqt import QtInteractor
-from qtpy.QtCore import QEvent, QTimer, Signal
+from qtpy.QtCore import QEvent, Qt, QTimer, Signal
 from qtpy.QtWidgets import QFrame, QHBoxLayout, QLabel, QSizePolicy, QToolButton, QVBoxLayout
 
 from app.pipeline import ViewInputs, ViewPipeline
@@ -23,6 +27,7 @@ from .options_panel import OptionsPanel
 from .tasks import QtJobRunner, TaskRunner
 
 IDLE_MILLISECONDS = 250  # camera at rest this long -> full-quality frame
+ORIENTATION_MARKER_VIEWPORT = (0.0, 0.0, 0.11, 0.11)  # lower-left corner, a ninth of the view's width
 INTERACTIVE_UPDATE_RATE = 8.0  # frames per second VTK's volume mappers aim for while the camera moves
 STILL_UPDATE_RATE = 0.0001
 
@@ -52,6 +57,8 @@ class RenderView(QFrame):
     ready = Signal(int)  # a full-quality frame of the current content is on screen
     activated = Signal(int)  # the user clicked into this view
     failed = Signal(str)  # a message for the user
+    enlarge_requested = Signal(object)  # this view: show it alone (or go back to the layout)
+    point_picked = Signal(object)  # LPS point picked with a measuring tool
 
     def __init__(self, index: int, tasks: TaskRunner, parent=None) -> None:
         super().__init__(parent)
@@ -74,14 +81,25 @@ class RenderView(QFrame):
         self.stats_label.setObjectName("stats")
         header = QHBoxLayout()
         header.setContentsMargins(4, 2, 4, 2)
+        self.enlarge_button = QToolButton()
+        self.enlarge_button.setText("Enlarge")
+        self.enlarge_button.setObjectName("enlarge")
+        self.enlarge_button.setToolTip("Show this view alone (one big view); press again to go back")
+        self.enlarge_button.clicked.connect(lambda: self.enlarge_requested.emit(self))
         header.addWidget(self.mode_box)
         header.addWidget(self.options_button)
         header.addWidget(self.stats_label, 1)
+        header.addWidget(self.enlarge_button)
 
         self.plotter = QtInteractor(self, auto_update=False, multi_samples=0)
         self.plotter.set_background("black")
         self.renderer = self.plotter.renderer
-        self.plotter.add_orientation_widget(_orientation_cube(), interactive=False)
+        self.plotter.add_orientation_widget(_orientation_cube(), interactive=False,
+                                            viewport=ORIENTATION_MARKER_VIEWPORT)
+        self.tool = "navigate"
+        self._press = None
+        self._plane_actors: dict[str, Any] = {}
+        self._measure_actors: list = []
         layout = QVBoxLayout(self)
         layout.setContentsMargins(1, 1, 1, 1)
         layout.setSpacing(0)
@@ -100,6 +118,9 @@ class RenderView(QFrame):
         self._idle.setInterval(IDLE_MILLISECONDS)
         self._idle.timeout.connect(self.pipeline.camera_rested)
         self.plotter.interactor.installEventFilter(self)
+        from .clip_plane import ClipPlaneWidget  # clip-plane widget (issue 16)
+
+        self.clip_plane = ClipPlaneWidget(self)  # clip-plane widget (issue 16)
 
     # -- what the main window calls --------------------------------------------------------------------------------
     @property
@@ -131,6 +152,7 @@ class RenderView(QFrame):
     def _mode_shown(self) -> None:
         self.options_panel.set_mode(self.pipeline.mode, self.pipeline.options)
         self.options_button.setEnabled(bool(self.pipeline.mode.options))
+        self.clip_plane.mode_changed()  # clip-plane widget (issue 16)
 
     def set_options(self, options: dict[str, Any]) -> None:
         self.pipeline.set_options(**options)
@@ -167,8 +189,85 @@ class RenderView(QFrame):
         self.pipeline.shutdown()
         self.plotter.close()
 
+    # -- slice planes, measurements and picking -------------------------------------------------------------------
+    def set_slice_planes(self, outlines: dict, colors: dict) -> None:
+        """Draw the slice planes' outlines (``{plane: vtkPolyData}`` in LPS mm) in their colours."""
+        from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper
+
+        for plane, polydata in outlines.items():
+            actor = self._plane_actors.get(plane)
+            if actor is None:
+                actor = vtkActor()
+                actor.SetMapper(vtkPolyDataMapper())
+                actor.GetProperty().SetColor(*colors[plane])
+                actor.GetProperty().SetLineWidth(2.0)
+                actor.GetProperty().LightingOff()
+                actor.PickableOff()
+                self.renderer.AddActor(actor)
+                self._plane_actors[plane] = actor
+            actor.GetMapper().SetInputData(polydata)
+        self.render()
+
+    def plane_outline_points(self, plane: str) -> np.ndarray:
+        """The outline's points on show for ``plane`` (LPS mm), ``(n, 3)``."""
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+
+        actor = self._plane_actors.get(plane)
+        data = actor.GetMapper().GetInput() if actor is not None else None
+        if data is None or data.GetPoints() is None:
+            return np.zeros((0, 3))
+        return vtk_to_numpy(data.GetPoints().GetData()).astype(float)
+
+    def set_measurements(self, polylines: list) -> None:
+        """Draw measurement polylines (each ``(m, 3)`` LPS points) over the content."""
+        from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper
+
+        from app.slices import polyline_polydata
+
+        for actor in self._measure_actors:
+            self.renderer.RemoveActor(actor)
+        self._measure_actors = []
+        for points in polylines:
+            actor = vtkActor()
+            actor.SetMapper(vtkPolyDataMapper())
+            actor.GetMapper().SetInputData(polyline_polydata(points))
+            actor.GetProperty().SetColor(0.35, 0.86, 1.0)
+            actor.GetProperty().SetLineWidth(2.5)
+            actor.GetProperty().LightingOff()
+            actor.PickableOff()
+            self.renderer.AddActor(actor)
+            self._measure_actors.append(actor)
+        self.render()
+
+    def set_tool(self, tool: str) -> None:
+        self.tool = tool
+        self.plotter.interactor.setCursor(Qt.ArrowCursor if tool == "navigate" else Qt.CrossCursor)
+
+    def pick(self, x: float, y: float) -> np.ndarray | None:
+        """The LPS point of the content under widget pixel ``(x, y)`` of the plotter, or None."""
+        from vtkmodules.vtkRenderingCore import vtkCellPicker
+
+        picker = vtkCellPicker()
+        picker.SetTolerance(0.0005)
+        ratio = self.plotter.interactor.devicePixelRatioF()
+        height = self.plotter.ren_win.GetSize()[1]
+        if not picker.Pick(x * ratio, height - 1 - y * ratio, 0.0, self.renderer):
+            return None
+        return np.asarray(picker.GetPickPosition(), dtype=float)
+
     # -- Qt -------------------------------------------------------------------------------------------------------
     def eventFilter(self, watched, event) -> bool:  # noqa: N802 - Qt override
+        if self.tool != "navigate" and event.type() in (QEvent.MouseButtonPress, QEvent.MouseButtonRelease,
+                                                        QEvent.MouseMove, QEvent.MouseButtonDblClick):
+            if event.type() == QEvent.MouseButtonPress:
+                self.activated.emit(self.index)
+            if getattr(event, "button", lambda: None)() == Qt.LeftButton or event.type() == QEvent.MouseMove:
+                if event.type() == QEvent.MouseButtonRelease:
+                    position = event.position()
+                    point = self.pick(position.x(), position.y())
+                    if point is not None:
+                        self.point_picked.emit(point)
+                return True  # a measuring click does not turn the camera
         if event.type() == QEvent.MouseButtonPress:
             self.activated.emit(self.index)
         elif event.type() == QEvent.Resize and self.pipeline.content is not None:

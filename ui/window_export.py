@@ -9,7 +9,7 @@ import numpy as np
 from qtpy.QtWidgets import QFileDialog, QMessageBox
 
 from app.io import FileExistsRefusal
-from app.meshing import export_mesh, sidecar_path
+from app.meshing import MeshTooLargeError, export_mesh, sidecar_path
 from app.pipeline import write_png
 from app.workbench import LAYOUTS
 
@@ -52,16 +52,31 @@ class ExportActions:
         options = ExportOptionsDialog.ask(str(path), self)
         if options is None:
             return
+        self._start_mesh_export(view, path, options, overwrite)
+
+    def _start_mesh_export(self, view, path: Path, options: dict, overwrite: bool, allow_large: bool = False) -> None:
         close_edges = options.get("close_edges", False)
-        volume, result = self.model.volume, None if close_edges else view.current_surface()
+        volume, result = self.export_source(view), None if close_edges else view.current_surface()
         task = Task(f"Exporting {path.name}", export_mesh, volume, path, method=view.mode,
                     iso=view.pipeline.inputs.iso, options=view.pipeline.options,
                     coordinates=options["coordinates"], cleanup=options["cleanup"], close_edges=close_edges,
-                    overwrite=overwrite, result=result)
+                    overwrite=overwrite, result=result, allow_large=allow_large)
         task.finished.connect(lambda export: self.statusBar().showMessage(
             f"Wrote {export.paths[0]} ({export.written['triangles']:,} triangles, {options['coordinates']} mm) and its "
             f"sidecar", 15000))
-        task.failed.connect(lambda exc: self._report_error(f"Could not export {path}:\n\n{exc}", "Export failed"))
+
+        def failed(exc: BaseException) -> None:
+            # A very large surface is not an error but a question: the user decides whether to write it.
+            if isinstance(exc, MeshTooLargeError) and not allow_large:
+                question = (f"The surface has about {exc.triangles:,} triangles, more than the {exc.limit:,} an export "
+                            "makes without asking; clean-up, validation and writing may take minutes and several GiB."
+                            f"\n\nWrite all of them to {path.name} anyway?")
+                if self._confirm(question):
+                    self._start_mesh_export(view, path, options, overwrite, allow_large=True)
+                return
+            self._report_error(f"Could not export {path}:\n\n{exc}", "Export failed")
+
+        task.failed.connect(failed)
         self.tasks.start(task)
 
     def _confirm(self, question: str) -> bool:

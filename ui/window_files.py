@@ -9,8 +9,10 @@ from pathlib import Path
 from qtpy.QtGui import QAction
 from qtpy.QtWidgets import QFileDialog, QMessageBox
 
-from app.io import READABLE_SUFFIXES, list_series
+from app.io import READABLE_SUFFIXES, is_zarr_path, list_series
 from app.io.meshes import MESH_SUFFIXES_READ
+from app.provenance import series_choices
+from app.samples import sample_path
 from app.volume import Volume
 from app.workbench import load_for_workbench
 
@@ -35,16 +37,26 @@ class FileActions:
         if folder:
             self.open_path(folder)
 
-    def open_path(self, path, series_uid: str | None = None) -> None:
-        """Load a file or DICOM folder in a worker; a folder with several series asks which one first."""
+    def open_sample(self, name: str) -> None:
+        """Open a sample by short name; a sample that is not installed is a message, not an exception."""
+        try:
+            path = sample_path(name)
+        except ValueError as exc:
+            self._report_error(str(exc), "Sample not installed")
+            return
+        self.open_path(path)
+
+    def open_path(self, path, series_uid: str | None = None, *, labels: bool | None = None) -> None:
+        """Load a file or DICOM folder in a worker; a folder with several series asks which one first. A label map
+        (detected, or ``labels=True``) opened over a volume is drawn over it."""
         path = Path(path)
-        if path.is_dir() and series_uid is None:
+        if path.is_dir() and series_uid is None and not is_zarr_path(path):  # a .zarr store is a folder too
             task = Task(f"Scanning {path.name}", lambda progress=None: list_series(path))
             task.finished.connect(lambda series: self._series_listed(path, series))
             task.failed.connect(lambda exc: self._load_error(path, exc))
             self.tasks.start(task)
             return
-        task = Task(f"Loading {path.name}", load_for_workbench, path, series_uid=series_uid)
+        task = Task(f"Loading {path.name}", load_for_workbench, path, series_uid=series_uid, labels=labels)
         task.finished.connect(lambda volume: self._loaded(path, volume))
         task.failed.connect(lambda exc: self._load_error(path, exc))
         self.tasks.start(task)
@@ -52,16 +64,20 @@ class FileActions:
     def _series_listed(self, path: Path, series: list[dict]) -> None:
         """Open the largest series, asking first only when another one is a real alternative (a stack of at least
         a quarter of its images, not a localizer); scripted runs never ask."""
-        if not series:
-            self._load_error(path, ValueError("the folder holds no DICOM image series"))
+        series = series_choices(series)
+        loadable = [s for s in series if s["loadable"]]
+        if not loadable:
+            reasons = "; ".join(f"{s['description'] or s['series_uid']}: {s['reason']}" for s in series[:4])
+            self._load_error(path, ValueError("the folder holds no DICOM image series that forms a volume"
+                                              + (f" ({reasons})" if reasons else "")))
             return
-        alternatives = [s for s in series[1:] if s["slices"] >= max(2, series[0]["slices"] // 4)]
+        alternatives = [s for s in loadable[1:] if s["slices"] >= max(2, loadable[0]["slices"] // 4)]
         if alternatives and self.ask_for_series:
             uid = SeriesChooser.ask(str(path), series, self)
             if uid is None:
                 return
         else:
-            uid = series[0]["series_uid"]
+            uid = loadable[0]["series_uid"]
         self.open_path(path, series_uid=uid)
 
     def open_other_series(self) -> None:
@@ -71,20 +87,27 @@ class FileActions:
         if folder is None or not folder.is_dir():
             self._report_error("The volume on show is not a DICOM folder.", "No other series")
             return
-        series = list_series(folder)
+        series = series_choices(list_series(folder))
         uid = SeriesChooser.ask(str(folder), series, self)
         if uid is not None:
             self.open_path(folder, series_uid=uid)
 
     def _loaded(self, path: Path, data) -> None:
         self._add_recent(path)
+        message = f"Opened {path.name}"
         if isinstance(data, Volume):
-            self.model.set_volume(data)
+            item = self.model.open_volume(data)
             warnings = data.metadata.get("warnings", [])
+            if item is not self.model.base:
+                message += f" as labels over {self.model.base.name}"
         else:
             warnings = self.model.add_mesh(data, path.name).metadata.get("warnings", [])
-        self.statusBar().showMessage(
-            f"Opened {path.name}" + (f" with {len(warnings)} warning(s): {warnings[0]}" if warnings else ""), 15000)
+        if warnings or (isinstance(data, Volume) and data.metadata.get("interpolated_slices")):
+            # Warnings stay in the Provenance panel for as long as the volume is open; show it.
+            self.provenance_dock.show()
+            self.provenance_dock.raise_()
+            message += f" with {len(warnings)} warning(s): see the Provenance panel"
+        self.statusBar().showMessage(message, 15000)
         self.volume_loaded.emit(data)
 
     def _load_error(self, path: Path, exc: Exception) -> None:

@@ -29,8 +29,9 @@ class SceneActions:
         missing = [item for item in fields if self._overlay_cache.get(item.name, (None,))[0] is not item]
 
         def show() -> None:
-            overlays = [(self._overlay_cache[item.name][1], item.role) for item in fields
-                        if item.name in self._overlay_cache]
+            overlays = [(self._overlay_cache[item.name][1], item.role, item.metadata.get("label_table"))
+                        for item in fields if item.name in self._overlay_cache]
+            overlays += self._cut_overlays()  # the region cut-away tools remove (window_cutaways, issue 15)
             for view in self.slice_views.values():
                 view.set_overlays(overlays)
 

@@ -198,10 +198,33 @@ class TetMesh:
         p0, p1, p2, p3 = (self.points[self.tetrahedra[:, c]] for c in range(4))
         return np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p3 - p0) / 6.0
 
-    def to_unstructured_grid(self) -> vtkUnstructuredGrid:
-        """The mesh as a ``vtkUnstructuredGrid`` of ``VTK_TETRA`` cells (deep copies)."""
+    def to_unstructured_grid(self, cell_data: dict[str, np.ndarray] | None = None) -> vtkUnstructuredGrid:
+        """The mesh as a ``vtkUnstructuredGrid`` of ``VTK_TETRA`` cells (deep copies); ``cell_data`` maps array
+        names to one value (or row) per tetrahedron, added as cell arrays (the first one also as active scalars)."""
         grid = vtkUnstructuredGrid()
         grid.SetPoints(vtk_points(self.points))
         cells = cell_array_from_offsets(np.arange(0, 4 * self.n_tetrahedra + 1, 4), self.tetrahedra.ravel())
         grid.SetCells(VTK_TETRA, cells)
+        for n, (name, values) in enumerate((cell_data or {}).items()):
+            values = np.asarray(values)
+            if len(values) != self.n_tetrahedra:
+                raise ValueError(f"cell array {name!r} has {len(values)} values for {self.n_tetrahedra} tetrahedra")
+            array = _point_array(values, name)
+            grid.GetCellData().AddArray(array)
+            if n == 0:
+                grid.GetCellData().SetActiveScalars(name)
         return grid
+
+    @classmethod
+    def from_unstructured_grid(cls, grid) -> "TetMesh":
+        """The ``VTK_TETRA`` cells of a ``vtkUnstructuredGrid`` (other cells are left out)."""
+        points = numpy_support.vtk_to_numpy(grid.GetPoints().GetData()) if grid.GetPoints() is not None else \
+            np.empty((0, 3))
+        cells = grid.GetCells()
+        if cells is None or grid.GetNumberOfCells() == 0:
+            return cls(points, np.empty((0, 4), dtype=np.int64))
+        offsets = numpy_support.vtk_to_numpy(cells.GetOffsetsArray()).astype(np.int64)
+        connectivity = numpy_support.vtk_to_numpy(cells.GetConnectivityArray()).astype(np.int64)
+        types = numpy_support.vtk_to_numpy(grid.GetCellTypes())
+        keep = (types == VTK_TETRA) & (np.diff(offsets) == 4)
+        return cls(points, connectivity[offsets[:-1][keep][:, None] + np.arange(4)])

@@ -10,8 +10,13 @@ message. A cancel (``OperationCancelled`` from VTK's abort flag, see :func:`~alg
 progress_for`) does propagate: :func:`~algorithms.common.vtk_bridge.run_algorithm` turns it back into the
 caller's own exception.
 
-A subclass sets :attr:`label`, implements ``_create_renderer(array, spacing, table, progress)`` and lists its
-set-up options in ``_setup_key()``.
+The volume reaches the renderer as a read-only view of VTK's own memory (no copy: the filter rebuilds the set-up
+when the image is modified), so a renderer holds no second copy of the volume. Every renderer jitters its samples
+(``SetJitter``, a set-up option) and renders jitter pass ``SetPassIndex(n)`` (a frame option: averaging passes
+0 .. n - 1 refines a still image).
+
+A subclass sets :attr:`label`, implements ``_create_renderer(array, spacing, table, progress)`` (reading
+``self._jitter``) and lists its set-up options in ``_setup_key()``.
 """
 
 from __future__ import annotations
@@ -47,6 +52,9 @@ class RendererFilter(VTKPythonAlgorithmBase):
         self._size = (256, 256)
         self._table: TransferTable | None = None
         self._material: tuple[float, float, float, float] | None = None
+        self._jitter = False
+        self._pass_index = 0
+        self._tools = None
         self._renderer = None
         self._renderer_key: tuple | None = None
         self.last_stats: dict[str, float] = {}
@@ -89,6 +97,36 @@ class RendererFilter(VTKPythonAlgorithmBase):
     def GetMaterial(self) -> tuple[float, float, float, float] | None:  # noqa: N802
         return self._material
 
+    def SetJitter(self, jitter: bool) -> None:  # noqa: N802
+        """Offset each ray's (or pixel's) samples by its jitter value; a change rebuilds the renderer's set-up."""
+        self._set("_jitter", bool(jitter))
+
+    def GetJitter(self) -> bool:  # noqa: N802
+        return self._jitter
+
+    def SetPassIndex(self, pass_index: int) -> None:  # noqa: N802
+        """The jitter pass of the next frame (0 for a still frame; see ``algorithms.common.sampling``)."""
+        if isinstance(pass_index, bool) or int(pass_index) != pass_index or pass_index < 0:
+            raise ValueError(f"the pass index must be a non-negative integer, got {pass_index!r}")
+        self._set("_pass_index", int(pass_index))
+
+    def GetPassIndex(self) -> int:  # noqa: N802
+        return self._pass_index
+
+    def SetTools(self, tools) -> None:  # noqa: N802
+        """Cut-away tools (:class:`algorithms.common.selection.ToolSet` in the input image's coordinates, or None):
+        a frame option - evaluated per sample, the set-up is kept (moving a tool rewrites nothing)."""
+        if tools is not None and len(tools) == 0:
+            tools = None
+        old = None if self._tools is None else self._tools.key()
+        new = None if tools is None else tools.key()
+        self._tools = tools
+        if old != new:
+            self.Modified()
+
+    def GetTools(self):  # noqa: N802
+        return self._tools
+
     def _material_keywords(self) -> dict[str, float]:
         """The material as the renderers' keyword arguments (empty: the renderer's defaults)."""
         if self._material is None:
@@ -128,17 +166,22 @@ class RendererFilter(VTKPythonAlgorithmBase):
             return self._fail(f"{self.label} expects an input image with the identity direction matrix")
         progress = progress_for(self)
         # The C++ address identifies the input (a Python wrapper's id changes from one update to the next).
-        key = (image.GetMTime(), image.__this__, id(self._table), image.GetSpacing(), self._setup_key())
+        key = (image.GetMTime(), image.__this__, id(self._table), image.GetSpacing(), self._jitter,
+               self._setup_key())
         try:
             if self._renderer is None or key != self._renderer_key:
-                self._renderer = self._create_renderer(array_from_image(image), image.GetSpacing(), self._table,
+                self._renderer = None  # release the old set-up before building the new one
+                array = array_from_image(image)
+                array.setflags(write=False)  # a view of VTK's memory: the renderer samples it without a copy
+                self._renderer = self._create_renderer(array, image.GetSpacing(), self._table,
                                                        scaled(progress, 0.0, 0.5))
                 self._renderer_key = key
             shift = np.eye(4)
             shift[:3, 3] = -np.asarray(image.GetOrigin(), dtype=np.float64)
             width, height = self._size
+            extra = {} if self._tools is None else {"tools": self._tools.in_frame(np.linalg.inv(shift))}
             result = self._renderer.render(self._camera.transformed(shift), width, height,
-                                           progress=scaled(progress, 0.5, 1.0))
+                                           pass_index=self._pass_index, progress=scaled(progress, 0.5, 1.0), **extra)
         except (ValueError, TypeError) as exc:
             return self._fail(f"{self.label}: {exc}")
         self.last_stats = dict(result.stats)

@@ -135,12 +135,16 @@ def image_from_array(
     name: str = "scalars",
     *,
     cell_data: bool = False,
+    share: bool = False,
 ) -> vtkImageData:
     """Wrap a ``(nz, ny, nx)`` array as a ``vtkImageData`` (identity direction).
 
     With ``cell_data=True`` the values go on the cells of an image with one more point per axis, the origin moved
     by half a voxel, so every voxel becomes a unit cell centred on its sample (used for voxel-face references).
-    The returned image references a contiguous copy of the data kept alive by VTK.
+    By default the returned image references a contiguous copy of the data kept alive by VTK. With ``share=True``
+    a C-contiguous ``array`` in native byte order is not copied: VTK's array points at the NumPy memory and holds a
+    reference to it (a non-contiguous one is copied once). The caller must then not write into ``array`` (VTK would
+    not notice) - :meth:`app.volume.Volume.to_vtk` makes its array read-only for that reason.
     """
     array = np.asarray(array)
     if array.ndim != 3:
@@ -148,8 +152,10 @@ def image_from_array(
     nz, ny, nx = array.shape
     image = vtkImageData()
     image.SetSpacing(*map(float, spacing))
-    flat = np.ascontiguousarray(array).ravel()
-    vtk_array = numpy_support.numpy_to_vtk(flat, deep=True)
+    if share and not array.dtype.isnative:
+        array = array.astype(array.dtype.newbyteorder("="))  # VTK reads native byte order only
+    flat = np.ascontiguousarray(array).reshape(-1)
+    vtk_array = numpy_support.numpy_to_vtk(flat, deep=not share)
     vtk_array.SetName(name)
     if cell_data:
         image.SetDimensions(nx + 1, ny + 1, nz + 1)

@@ -6,7 +6,13 @@ wrote) and is started by ``voxelscope bench NAME -o DIR``. Speed is measured her
 
 BENCHMARKS = {
     "voxel-surfaces": "app.bench.voxel_surfaces",
+    "cutaway": "app.bench.cutaway",
+    "distance": "app.bench.distance",
+    "chunked": "app.bench.chunked",
     "marching-cubes": "app.bench.marching_cubes",
+    "memory": "app.bench.memory",
     "render": "app.bench.render",
     "shear-warp": "app.bench.shear_warp",
+    "tetmesh": "app.bench.tetmesh",
+    "voxelise": "app.bench.voxelise",
 }

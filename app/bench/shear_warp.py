@@ -21,9 +21,18 @@ volumes; the same tests here, with :class:`algorithms.rendering.shear_warp.Shear
   (``vtk-gpu``, Mesa's llvmpipe without a GPU) with VTK's default sample distance of our renderers (half the
   smallest spacing). Ablations: without the volume's run-length encoding (every voxel visited), without early ray
   termination (which also turns off opaque-pixel skipping), without both; shear-warp shaded (normal grid 128);
-  shear-warp pre-scaled to isotropic 0.9375 mm voxels (``resample_spacing``). Set-up (classification, encoding; normals
-  with shading) is reported apart from the frame times; so is the first frame (numba's cache load). The start frame is
-  compared with ``vtk-gpu`` (foreground PSNR, SSIM) and a difference heat map is written.
+  shear-warp pre-scaled to isotropic 0.9375 mm voxels (``resample_spacing``, the default), and that with jitter
+  (one post-classified sample between each pair of slices, :mod:`algorithms.rendering.shear_warp.jitter`).
+  Set-up (classification, encoding; normals with shading) is reported apart from the frame times; so is the first
+  frame (numba's cache load). The start frame is compared with ``vtk-gpu`` (foreground PSNR, SSIM) and a difference
+  heat map is written.
+- **Anisotropic CT, parallel and perspective** (issue 17): the same phantom sampled on a real CT head series' grid,
+  ``ANISOTROPIC_SHAPE`` = 256 x 256 x 108 voxels of ``ANISOTROPIC_SPACING`` = 0.96 x 0.96 x 1.5 mm, ``ct-bone``,
+  unshaded, 512 x 512, ``CT_FRAMES`` frames of a turning camera once with parallel and once with perspective
+  projection: shear-warp at its default (resampled to the smallest spacing, source 004 section 6.3.1; perspective
+  after Lacroute's factorisation) and on the volume's own grid, against ``vtk-cpu`` and ``vtk-gpu`` with the same
+  projection. The issue's points: foreground PSNR against ``vtk-gpu`` >= 26 dB parallel and >= 24 dB perspective,
+  median frame time <= 0.5 x ``vtk-cpu``'s (``shear_warp_anisotropic.csv``).
 - **Banding**: the shaded start frame with a coarse (8) and a fine (128) normal grid side by side, and
   :func:`algorithms.compare.image_metrics.shading_banding` of a shaded sphere for several grids.
 
@@ -66,18 +75,30 @@ CT_FRAMES, QUICK_CT_FRAMES = 24, 4
 TURN_DEGREES = 15.0
 ELEVATION = 20.0
 PRESET = "ct-bone"
+#: The anisotropic CT: a real head series' grid (voxels z, y, x; spacing x, y, z in mm).
+ANISOTROPIC_SHAPE = (108, 256, 256)
+ANISOTROPIC_SPACING = (0.96, 0.96, 1.5)
+#: Its variants (name -> renderer options): the default (resampled to the smallest spacing) and the own grid.
+ANISOTROPIC_VARIANTS = {
+    "shear-warp (default: resampled)": {},
+    "shear-warp (own grid)": {"resample_spacing": None},
+}
 #: Normal grids of the banding comparison (cells per side of the source's grid).
 BANDING_GRIDS = (8, 18, 32, 64, 128)
 #: Grey levels with opacity 0 at value 0 only: the transfer function of tests 1 and 2.
 RANDOM_TABLE = TransferTable.from_points([(0, 0, 0, 0), (255, 1, 1, 1)], [(0, 0), (255, 0.3)], (0, 255))
 #: CT variants: name -> renderer options (``vtk-*`` rows are VTK's mappers).
+#: The source's algorithm and its ablations run on the volume's own grid (``resample_spacing=None``); the
+#: renderer's default resamples this anisotropic phantom to its smallest spacing (the last row).
 CT_VARIANTS = {
-    "shear-warp": {},
-    "shear-warp (no RLE)": {"use_rle": False},
-    "shear-warp (no early termination)": {"early_termination": None},
-    "shear-warp (no RLE + no early termination)": {"use_rle": False, "early_termination": None},
-    "shear-warp shaded": {"shading": True},
-    "shear-warp pre-scaled 0.9375 mm": {"resample_spacing": 0.9375},
+    "shear-warp": {"resample_spacing": None},
+    "shear-warp (no RLE)": {"use_rle": False, "resample_spacing": None},
+    "shear-warp (no early termination)": {"early_termination": None, "resample_spacing": None},
+    "shear-warp (no RLE + no early termination)": {"use_rle": False, "early_termination": None,
+                                                   "resample_spacing": None},
+    "shear-warp shaded": {"shading": True, "resample_spacing": None},
+    "shear-warp resampled to 0.9375 mm (default)": {"resample_spacing": "auto"},
+    "shear-warp resampled, jittered": {"resample_spacing": "auto", "jitter": True},
 }
 
 
@@ -102,7 +123,7 @@ def _time_renderer(build: Callable[[], ShearWarpRenderer], cameras: list[Camera]
         results.append(renderer.render(camera, size, size))
         frames.append(time.perf_counter() - tick)
     return {"times": FrameTimes(setup, frames), "first_seconds": first_seconds, "start": first,
-            "setup_stats": renderer.setup_stats, "stats": _stats_means(results)}
+            "setup_stats": renderer.setup_stats, "stats": _stats_means(results), "spacing": renderer.spacing}
 
 
 def _turning_cameras(volume: Volume, frames: int) -> list[Camera]:
@@ -143,6 +164,51 @@ def _averaged(rows: list[dict[str, Any]], key: str) -> list[dict[str, Any]]:
                    if isinstance(group[0][name], (int, float)) and name not in (key, "seed")}
         out.append({key: value, "volumes": len(group), **numbers})
     return out
+
+
+def _anisotropic_rows(frames: int, progress: ProgressCallback) -> tuple[list[dict[str, Any]], np.ndarray]:
+    """The anisotropic CT with parallel and with perspective projection: rows per projection and renderer, and a
+    montage of the start frames (rows: parallel, perspective; columns: vtk-gpu, shear-warp default)."""
+    volume = ct_head_phantom(ANISOTROPIC_SHAPE, ANISOTROPIC_SPACING)
+    function = transfer_function_for(volume, PRESET, shading=False)
+    table = function.to_table(volume.value_range)
+    step = default_sample_distance(volume)
+    rows, montage = [], []
+    projections = ("parallel", "perspective")
+    for index, projection in enumerate(projections):
+        start = default_camera(volume, elevation=ELEVATION, parallel=projection == "parallel")
+        world_cameras = turning_cameras(start, frames, TURN_DEGREES)
+        cameras = [camera_in_frame(camera, volume.local_to_world) for camera in world_cameras]
+        runs: dict[str, dict[str, Any]] = {}
+        for name, mapper in (("vtk-cpu", "cpu"), ("vtk-gpu", "gpu")):
+            runs[name] = time_vtk_mapper(volume, function, mapper, world_cameras, SIZE, sample_distance=step)
+        for name, options in ANISOTROPIC_VARIANTS.items():
+            run_ = _time_renderer(lambda options=options: ShearWarpRenderer(volume.array, volume.spacing, table,
+                                                                            **options), cameras, SIZE)
+            run_["rendered_spacing"] = run_.pop("spacing")
+            run_["start"] = run_["start"].to_uint8()
+            runs[name] = run_
+        cpu_median = runs["vtk-cpu"]["times"].summary()["frame_seconds"]
+        for name, run_ in runs.items():
+            timing = run_["times"].summary()
+            comparison = compare_images(run_["start"], runs["vtk-gpu"]["start"])
+            rows.append({
+                "projection": projection,
+                "renderer": name,
+                "rendered_spacing_mm": "x".join(f"{v:.4g}" for v in run_.get("rendered_spacing", volume.spacing)),
+                "median_frame_seconds": timing["frame_seconds"],
+                "p95_frame_seconds": timing["p95_frame_seconds"],
+                "ratio_to_vtk_cpu": timing["frame_seconds"] / cpu_median,
+                "setup_seconds": timing["setup_seconds"],
+                "first_frame_seconds": run_.get("first_seconds", float("nan")),
+                "psnr_foreground_db_vs_vtk_gpu": comparison.psnr_foreground,
+                "ssim_vs_vtk_gpu": comparison.ssim,
+                "frames": timing["frames"],
+            })
+        montage.append(np.concatenate([runs["vtk-gpu"]["start"], runs["shear-warp (default: resampled)"]["start"]],
+                                      axis=1))
+        report(progress, (index + 1) / len(projections))
+    return rows, np.concatenate(montage, axis=0)
 
 
 def _banding_rows(grids=BANDING_GRIDS) -> tuple[list[dict[str, Any]], dict[int, np.ndarray]]:
@@ -225,7 +291,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     volumes, frames, ct_frames = (QUICK_VOLUMES, QUICK_FRAMES, QUICK_CT_FRAMES) if quick else (
         VOLUMES, FRAMES, CT_FRAMES)
     sizes = SIZES[:-1] if quick else SIZES
-    steps = len(sizes) * volumes + len(TRANSPARENT_PERCENT) * volumes + 3 + len(CT_VARIANTS)
+    steps = len(sizes) * volumes + len(TRANSPARENT_PERCENT) * volumes + 4 + len(CT_VARIANTS)
     done = 0
 
     def next_progress() -> ProgressCallback:
@@ -295,6 +361,9 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
             "frames": timing["frames"],
         })
 
+    # The anisotropic CT, parallel and perspective.
+    anisotropic_rows, anisotropic_montage = _anisotropic_rows(ct_frames, next_progress())
+
     # Banding: coarse and fine normal tables on the CT and on a sphere.
     banding, sphere_images = _banding_rows()
     coarse = ShearWarpRenderer(phantom.array, phantom.spacing, table, shading=True, normal_grid=8, **material)
@@ -308,6 +377,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
         write_csv(out_dir / "shear_warp_transparency.csv", transparency_rows),
         write_csv(out_dir / "shear_warp_ct.csv", ct_rows),
         write_csv(out_dir / "shear_warp_banding.csv", banding),
+        write_csv(out_dir / "shear_warp_anisotropic.csv", anisotropic_rows),
         _plot_random(out_dir / "shear_warp_tests_1_2.png", sizes_mean, transparency_mean),
         _plot_ct(out_dir / "shear_warp_ct.png", ct_rows, runs),
     ]
@@ -319,6 +389,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
         "shear_warp_ct_banding_grid8_vs_grid128.png": np.concatenate(
             [coarse_start, runs["shear-warp shaded"]["start"]], axis=1),
         "shear_warp_sphere_banding.png": np.concatenate([sphere_images[grid] for grid in BANDING_GRIDS], axis=1),
+        "shear_warp_anisotropic_frames.png": anisotropic_montage,
     }
     for name, image in images.items():
         plt.imsave(out_dir / name, image)
@@ -350,6 +421,14 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
             "speed_up_from_rle": median("shear-warp (no RLE)") / median("shear-warp"),
             "speed_up_from_early_termination": median("shear-warp (no early termination)") / median("shear-warp"),
             "speed_up_from_both": median("shear-warp (no RLE + no early termination)") / median("shear-warp"),
+        },
+        "anisotropic_ct": {
+            "shape": list(ANISOTROPIC_SHAPE),
+            "spacing_mm": list(ANISOTROPIC_SPACING),
+            "preset": PRESET,
+            "frames": ct_frames,
+            "summary": anisotropic_rows,
+            "montage": "rows: parallel, perspective; columns: vtk-gpu, shear-warp (default: resampled)",
         },
         "banding": banding,
         "notes": [

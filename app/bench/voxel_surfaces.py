@@ -63,12 +63,14 @@ from .. import datasets
 from ..io import load_volume
 from ..pipeline import OffscreenScene
 from ..vtk_setup import configure_vtk, set_smp_backend, smp_backend
+from app.samples import MRICRON_COLIN27
+
 from .common import Timing, machine_info, pyplot, save_figure, time_call, write_csv, write_json
 
-#: Colin 27 (the source's BrainWeb grid, 181 x 217 x 181, 1 mm, uint8): the project copy first, then shared data.
+#: Colin 27 (the source's BrainWeb grid, 181 x 217 x 181, 1 mm, uint8): Debian's mricron-data, then shared data.
 COLIN_PATHS = (
-    Path(__file__).resolve().parents[2] / "sample_volumes" / "colin27_t1_ch2.nii.gz",
-    Path("/work/shared/data/colin27_t1_ch2.nii.gz"),
+    MRICRON_COLIN27,
+    Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "colin27_t1_ch2.nii.gz",
 )
 #: Thresholds on Colin 27's T1 values (0-254): head surface, grey matter and up, white matter.
 COLIN_THRESHOLDS = (30, 70, 110)

@@ -83,6 +83,31 @@ def _item_name(path: Path) -> str:
     return name or str(path)
 
 
+def add_cut_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--cut SPEC`` (repeatable), ``--cut-mode``, ``--cut-eval``: cut-away tools in LPS mm (source 002, 2.5)."""
+    group = parser.add_argument_group("cut-away tools (LPS mm, angles in degrees about x, then y, then z)")
+    group.add_argument("--cut", action="append", default=[], metavar="SPEC",
+                       help="a tool, repeatable (several tools remove the union of their removals): sphere:X,Y,Z,R | "
+                            "box:X,Y,Z,SX,SY,SZ[,RX,RY,RZ] (centre, full sizes) | cylinder:X,Y,Z,R,H[,RX,RY,RZ] | "
+                            "plane:X,Y,Z,NX,NY,NZ (removes the side the normal points into) | "
+                            "mask:FILE[@TRANSFORM.json] (a mask or distance field on its own grid)")
+    group.add_argument("--cut-mode", default="remove", choices=("remove", "keep"),
+                       help="remove what is inside the tools (default), or keep only the inside (a region of interest)")
+    group.add_argument("--cut-eval", default="binary", choices=("binary", "distance"),
+                       help="binary test per sample (default), or the difference of distance fields: a smooth cut "
+                            "surface with the tool's normals")
+
+
+def tools_from_args(args) -> list:
+    """The tools of ``--cut`` (a CommandError with the problem for a bad specification)."""
+    from ..selection import tools_from_specs
+
+    try:
+        return tools_from_specs(getattr(args, "cut", None) or [], mode=getattr(args, "cut_mode", "remove"))
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+
+
 def refuse_existing(path, force: bool) -> Path:
     """``path`` as a Path; a CommandError if it exists and ``force`` is not set."""
     path = Path(path).expanduser()

@@ -16,6 +16,11 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
+    from ..io.zarr import is_zarr_path
+    from ..samples import resolve_path
+
+    if is_zarr_path(resolve_path(args.path)):  # chunked volumes: metadata only, no sample read (issue 19)
+        return _chunked_info(args)
     item = load_item(args)
     facts = item.describe()
     facts.pop("name", None)
@@ -59,6 +64,30 @@ def _volume_lines(item, facts) -> list[str]:
     for warning in facts["warnings"]:
         lines.append(f"Warning      {warning}")
     return lines
+
+
+def _chunked_info(args) -> int:
+    from ..io.zarr import open_zarr
+    from ..samples import resolve_path
+
+    facts = open_zarr(resolve_path(args.path)).describe()
+    facts.pop("kind", None)
+    if args.json:
+        print_json(facts)
+        return 0
+    value_range = facts["range"]
+    print(f"Source       {resolve_path(args.path)} ({facts['source_format']})")
+    print(f"Dimensions   {' x '.join(map(str, facts['dimensions']))} voxels (x, y, z), "
+          f"{facts['bytes'] / 2**30:.2f} GiB of {facts['dtype']}")
+    print(f"Spacing      {' x '.join(f'{s:g}' for s in facts['spacing'])} mm")
+    print(f"Origin       ({', '.join(f'{o:.3f}' for o in facts['origin'])}) mm LPS")
+    print("Values       " + (f"{value_range[0]:g} to {value_range[1]:g}" if value_range else "not recorded"))
+    for n, level in enumerate(facts["levels"]):
+        print(f"Level {n}      {' x '.join(map(str, level['dimensions']))} voxels, chunks "
+              f"{' x '.join(map(str, level['chunks']))}, {' x '.join(f'{s:g}' for s in level['spacing'])} mm")
+    for warning in facts["warnings"]:
+        print(f"Warning      {warning}")
+    return 0
 
 
 def _mesh_lines(item, facts) -> list[str]:

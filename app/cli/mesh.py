@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from .common import (add_input_arguments, add_mode_option_flags, load_volume_argument, mode_options_from_args,
-                     print_json)
+from .common import (CommandError, add_cut_arguments, add_input_arguments, add_mode_option_flags, load_volume_argument,
+                     mode_options_from_args, print_json, tools_from_args)
 
 NAME = "mesh"
 HELP = "extract a surface and write STL, PLY, OBJ or VTP (with a JSON sidecar)"
@@ -32,18 +32,78 @@ def add_arguments(parser) -> None:
     parser.add_argument("--fill-holes", type=float, default=0.0, metavar="MM", help="close holes up to this size (mm)")
     parser.add_argument("--close-edges", action="store_true",
                         help="cap the surface where it leaves the volume (within one voxel outside the data)")
-    parser.add_argument("--force", action="store_true", help="replace existing output files")
+    parser.add_argument("--force", action="store_true",
+                        help="replace existing output files, and export surfaces of more than 20 M triangles")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    add_cut_arguments(parser)
+    # Chunked volumes (issue 19): a Zarr/OME-Zarr store meshed chunk by chunk on a Dask cluster.
+    cluster = parser.add_mutually_exclusive_group()
+    cluster.add_argument("--workers", type=int, nargs="?", const=-1, metavar="N",
+                         help="mesh a .zarr chunk by chunk on a local Dask cluster of N worker processes (default: "
+                              "the machine's cores)")
+    cluster.add_argument("--scheduler", metavar="ADDRESS", help="mesh a .zarr chunk by chunk on the Dask cluster of "
+                                                                "this scheduler (e.g. tcp://10.0.0.5:8786)")
+    # Label volumes (issue 18): one closed mesh per label into the folder -o, listed in -o/labels.json.
+    parser.add_argument("--labels", metavar="all|1,5,9", help="the input is a label volume: write one closed mesh "
+                                                              "per label (all, or the labels listed) into the folder -o")
+    parser.add_argument("--color-table", metavar="FILE", help="with --labels: label names and colours (ITK-SNAP, 3D "
+                                                              "Slicer, FreeSurfer, AAL or MRIcron file)")
+    parser.add_argument("--format", default="stl", choices=("stl", "ply", "obj", "vtp"),
+                        help="with --labels: mesh file format (default stl)")
     add_mode_option_flags(parser, [get_mode(name) for name in surface_modes])
 
 
+def _progress(label: str):
+    """A progress line on standard error when it is a terminal (pipes and tests get one-line errors only)."""
+    import sys
+
+    if not sys.stderr.isatty():
+        return None
+    shown = [-1]
+
+    def show(fraction: float) -> None:
+        percent = int(100 * fraction)
+        if percent != shown[0]:
+            shown[0] = percent
+            print(f"\r{label}: {percent:3d} %", end="" if percent < 100 else "\n", file=sys.stderr, flush=True)
+
+    return show
+
+
 def run(args) -> int:
-    from ..meshing import default_iso, export_mesh
+    from algorithms.common.progress import scaled
+
+    from ..mesh_files import check_mesh_targets
+    from ..meshing import default_iso, surface_for_export, write_export
     from ..modes import get_mode
 
     options = get_mode(args.method).resolve_options(mode_options_from_args(args))
+    tools = tools_from_args(args)  # bad specifications are refused before loading anything
+    if args.workers is not None or args.scheduler is not None:
+        from ..distributed.command import run_chunked_mesh
+
+        return run_chunked_mesh(args, tools, progress=_progress(f"mesh {args.output}"))
     volume = load_volume_argument(args)
+    if args.labels is not None:
+        if tools:
+            raise CommandError("--cut applies to one surface, not to --labels; cut the label volume first with "
+                               "'voxelscope convert --cut'")
+        from ..labels import run_mesh_command
+
+        return run_mesh_command(volume, args, options)
     iso = args.iso if args.iso is not None else default_iso(volume)
+    cut = None
+    if tools:
+        import time
+
+        from ..meshing import check_isovalue
+        from ..selection import cut_for_surface, describe_tools
+
+        check_isovalue(volume, iso)  # on the data, before the cut lowers values
+        start = time.perf_counter()
+        # The surface of the data minus the tools, capped at the cut (CSG difference, source 002, 3.3.1).
+        volume = cut_for_surface(volume, tools, iso, evaluation=args.cut_eval)
+        cut = describe_tools(tools, args.cut_eval, time.perf_counter() - start)
     cleanup = {}
     if args.smooth:
         cleanup["smooth_iterations"] = args.smooth
@@ -54,9 +114,15 @@ def run(args) -> int:
         cleanup["largest_component"] = True
     if args.fill_holes:
         cleanup["fill_holes_mm"] = args.fill_holes
-    export = export_mesh(volume, args.output, method=args.method, iso=iso, stride=args.stride, options=options,
-                         coordinates=args.coordinates, cleanup=cleanup, close_edges=args.close_edges,
-                         overwrite=args.force)
+    output = check_mesh_targets(args.output, overwrite=args.force)  # before any work
+    progress = _progress(f"mesh {output.name}")
+    surface = surface_for_export(volume, method=args.method, iso=iso, stride=args.stride, options=options,
+                                 coordinates=args.coordinates, close_edges=args.close_edges, allow_large=args.force,
+                                 progress=scaled(progress, 0.0, 0.4))
+    units = volume.units_label
+    del volume  # the samples are not needed any more: clean-up and validation get their memory
+    export = write_export(surface, output, cleanup=cleanup, overwrite=args.force, progress=scaled(progress, 0.4, 1.0))
+    del surface
     stats = export.stats
     validity = export.validity or {}
     report = {
@@ -70,20 +136,22 @@ def run(args) -> int:
         "method": args.method,
         "options": options,
         "iso": iso,
-        "iso_units": volume.units_label,
+        "iso_units": units,
         "coordinates": args.coordinates.upper(),
         "output": str(export.paths[0]),
         "sidecar": str(export.paths[1]) if len(export.paths) > 1 else None,
         "written": {k: int(v) for k, v in export.written.items()},
         "validity": validity,
     }
+    if cut is not None:
+        report["cut"] = cut
     if args.json:
         print_json(report)
         return 0
     print(f"Validity: watertight={validity.get('watertight')}, manifold={validity.get('manifold')}, "
           f"outward normals={validity.get('outward_normals')}, components={validity.get('components')}")
     print(f"Extracted {report['triangles']} triangles, {report['points']} points, {report['strips']} strips, "
-          f"{report['bytes']} bytes in {report['seconds']:.3f} s at {iso:g} {volume.units_label}")
+          f"{report['bytes']} bytes in {report['seconds']:.3f} s at {iso:g} {units}")
     print(f"Wrote {report['output']} ({report['written']['triangles']} triangles, {report['coordinates']} mm) "
           f"and {report['sidecar']}")
     return 0

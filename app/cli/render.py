@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import argparse
 
-from .common import (add_input_arguments, add_mode_option_flags, load_item, mode_options_from_args, print_json,
-                     refuse_existing)
+from .common import (add_cut_arguments, add_input_arguments, add_mode_option_flags, load_item, mode_options_from_args,
+                     print_json, refuse_existing, tools_from_args)
 
 NAME = "render"
 HELP = "render a volume or mesh off-screen to PNG in any mode, optionally timing frames"
@@ -42,7 +42,42 @@ def add_arguments(parser) -> None:
                              "voxel spacing)")
     parser.add_argument("--force", action="store_true", help="replace an existing output file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    add_cut_arguments(parser)
     add_mode_option_flags(parser, modes())
+
+
+def _check_surface_isovalue(mode, item, iso) -> None:
+    """Surface modes of a volume: refuse an isovalue outside the data's range before rendering anything."""
+    volume = getattr(item, "volume", None)
+    if not mode.capabilities.uses_iso or volume is None:
+        return
+    from ..meshing import check_isovalue, default_iso
+
+    if iso is None:
+        iso = item.iso if hasattr(item, "role") else default_iso(volume)
+    check_isovalue(volume, float(iso))
+
+
+def _check_surface_drawn(mode, item, report) -> None:
+    """Surface modes: an empty surface, or one that draws no pixel (all its triangles without area), is an error
+    before the PNG is written."""
+    import numpy as np
+
+    if mode.output != "surface" or not hasattr(item, "volume"):
+        return
+    from ..meshing import EmptySurfaceError, source_name
+
+    volume, iso = item.volume, report.info["iso"]
+    units = volume.units_label
+    triangles = int(report.info.get("surface", {}).get("triangles", 0))
+    background = np.rint(np.asarray(report.info.get("background", (0.0, 0.0, 0.0))) * 255.0)
+    drawn = np.any(np.abs(report.image.astype(np.int16) - background.astype(np.int16)) > 1)
+    if triangles and drawn:
+        return
+    lo, hi = volume.value_range
+    reason = "there is none" if not triangles else "its triangles have no area (or are smaller than a pixel)"
+    raise EmptySurfaceError(f"{source_name(volume)}: no surface to draw at {iso:g} {units}: {reason}; the values run "
+                            f"from {lo:g} to {hi:g} {units}; nothing was written; choose another isovalue")
 
 
 def run(args) -> int:
@@ -55,15 +90,21 @@ def run(args) -> int:
         raise ValueError(f"{output}: pictures are written as PNG; use a .png file name")
     mode = get_mode(args.mode)
     options = mode.resolve_options(mode_options_from_args(args))  # refuses flags the mode does not take, early
+    tools = tools_from_args(args)  # bad specifications are refused before loading anything
     item = load_item(args)
+    _check_surface_isovalue(mode, item, args.iso)
     settings = RenderSettings(
         mode=args.mode, options={k: v for k, v in options.items() if v is not None and k in
                                  mode_options_from_args(args)},
         preset=args.preset, size=tuple(args.size), view=args.view, azimuth=args.azimuth, elevation=args.elevation,
         parallel=args.parallel, shading=args.shading, background=parse_background(args.background),
-        frames=args.frames, iso=args.iso, sample_distance=args.sample_distance,
+        frames=args.frames, iso=args.iso, sample_distance=args.sample_distance, tools=tuple(tools),
+        cut_evaluation=args.cut_eval,
     )
     report = render_item(item, settings)
+    report.info["background"] = list(settings.background)
+    _check_surface_drawn(mode, item, report)
+    del report.info["background"]
     write_png(report.image, output, overwrite=args.force)
     report.info["output"] = str(output)
     if args.json:

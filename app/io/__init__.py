@@ -12,6 +12,7 @@ folder                        DICOM series (largest stack, or ``series_uid``)
 ``*.mha``, ``*.mhd``          MetaImage (header checked here, pixels by VTK, ITK geometry)
 ``*.vti``, ``*.vtk``          VTK image (XML or legacy; header checked before VTK reads it)
 anything with ``raw=``        raw voxels with an explicit :class:`RawLayout`
+``*.zarr`` folder             Zarr v2/v3, OME-Zarr pyramids (:mod:`app.io.zarr`; lazy: :func:`open_zarr`)
 ``*.stl .obj .ply .vtp .off``  surface meshes, optionally gzipped: :func:`load_mesh` (:mod:`app.io.meshes`)
 ============================  ==========================================================
 
@@ -51,16 +52,18 @@ from .formats import (
 )
 from .meshes import MESH_SUFFIXES_READ, Mesh, describe_mesh, is_mesh_path, load_mesh
 from .safety import one_line, require_regular_file
+from .zarr import ChunkedVolume, is_zarr_path, open_zarr, read_zarr, save_zarr
 
 __all__ = [
     "load_volume", "save_volume", "volume_format", "list_series", "write_dicom_series", "RawLayout",
     "VolumeReadError", "UnsupportedFormatError", "CorruptFileError", "DicomSeriesError", "MissingDecoderError",
     "VolumeWriteError", "FileExistsRefusal", "READABLE_SUFFIXES", "WRITABLE_SUFFIXES",
+    "ChunkedVolume", "open_zarr", "is_zarr_path",
     "Mesh", "MeshReadError", "MESH_SUFFIXES_READ", "describe_mesh", "is_mesh_path", "load_mesh", "read_multiframe",
 ]
 
-READABLE_SUFFIXES = (".dcm", ".nii", ".nii.gz", ".hdr", ".img", ".mnc", ".nrrd", ".nhdr", ".mha", ".mhd", ".vti", ".vtk")
-WRITABLE_SUFFIXES = (".nii", ".nii.gz", ".nrrd", ".mha", ".mhd", ".vti")
+READABLE_SUFFIXES = (".zarr", ".dcm", ".nii", ".nii.gz", ".hdr", ".img", ".mnc", ".nrrd", ".nhdr", ".mha", ".mhd", ".vti", ".vtk")
+WRITABLE_SUFFIXES = (".zarr", ".nii", ".nii.gz", ".nrrd", ".mha", ".mhd", ".vti")
 
 
 def _suffix(path: Path) -> str:
@@ -75,6 +78,8 @@ def _suffix(path: Path) -> str:
 def volume_format(path) -> str:
     """A short name of the format ``load_volume`` would use for ``path`` (raises for unknown paths)."""
     path = Path(path)
+    if is_zarr_path(path):
+        return "Zarr"
     if path.is_dir():
         return "DICOM series"
     suffix = _suffix(path)
@@ -165,6 +170,8 @@ def _read(path: Path, series_uid, raw, irregular, allow_gaps, volume_index, prog
                  progress=progress)
     if raw is not None:
         return read_raw(path, raw)
+    if is_zarr_path(path):  # level 0 in memory when it fits; open_zarr gives the lazy ChunkedVolume
+        return read_zarr(path)
     if path.is_dir():
         return read_dicom_series(path, **dicom)
     fmt = volume_format(path)
@@ -193,5 +200,7 @@ def save_volume(volume: Volume, path, *, overwrite: bool = False) -> Path:
         return write_metaimage(volume, path, overwrite=overwrite)
     if suffix == ".vti":
         return write_vti(volume, path, overwrite=overwrite)
+    if suffix == ".zarr":
+        return save_zarr(volume, path, overwrite=overwrite)
     raise VolumeWriteError(f"{path}: cannot write '{suffix}'; use one of {', '.join(WRITABLE_SUFFIXES)}")
 

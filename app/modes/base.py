@@ -44,6 +44,7 @@ class Capabilities:
     uses_transfer_function: bool = False
     accepts_selection: bool = False
     software: bool = False
+    clip_plane: bool = False  # the view cuts the content with a plane the window lets the user drag (issue 16)
 
     def describe(self) -> dict[str, Any]:
         return dict(self.__dict__)

@@ -15,7 +15,7 @@ from typing import Any, Mapping
 from ..pipeline.comparisons import ImageDifferenceContent, SurfaceDistanceContent
 from ..pipeline.content import ViewContent
 from . import get_mode, register_mode, renderers, surfaces, volume_mappers  # noqa: F401 - registered first
-from .base import Mode
+from .base import Mode, Option
 
 
 @dataclass(frozen=True)
@@ -36,11 +36,21 @@ class ComparisonMode(Mode):
         get_mode(self.test).check_options(options)
 
 
+#: The legends' scale (see :mod:`app.pipeline.comparisons`): a distance in mm for surfaces, a difference in
+#: fractions of full scale for images, shown at the middle of the colour bar.
+SURFACE_TOLERANCE = Option("tolerance", "float", None, "legend: the distance shown white, in the middle of the colour "
+                           "bar, which spans twice it (default: a tenth of the smallest voxel spacing)", unit="mm",
+                           minimum=1e-9, maximum=1e6)
+IMAGE_TOLERANCE = Option("difference_tolerance", "float", 0.05, "legend: the difference (fraction of full scale, "
+                         "0-1) shown in the middle of the colour bar, which spans twice it", minimum=1e-4, maximum=0.5)
+
+
 def _comparison(test: str, reference: str, label: str, description: str) -> ComparisonMode:
     tested = get_mode(test)
+    legend = SURFACE_TOLERANCE if tested.output == "surface" else IMAGE_TOLERANCE
     return ComparisonMode(
         f"{test}-vs-{reference}", label, description, group="Comparisons", origin="ours", input=tested.input,
-        output="comparison", options=tested.options, capabilities=tested.capabilities, test=test,
+        output="comparison", options=(*tested.options, legend), capabilities=tested.capabilities, test=test,
         reference=reference,
     )
 

@@ -30,6 +30,13 @@ class SurfaceMode(Mode):
     flat_shading: bool = False
     compiled: bool = False
     statistics: Callable[[Any], dict] | None = None
+    #: ``count(array, iso, stride, progress)``: the number of triangles the filter will make, found without
+    #: extracting; ``bound(shape)``: the most the filter can make on a grid of that shape (the count is skipped
+    #: when that is below the limit asked about).
+    count: Callable[..., int] | None = None
+    bound: Callable[[tuple[int, ...]], int] | None = None
+    #: The filter never puts two points at one position (exports then skip merging coincident points).
+    unique_points: bool = False
 
     def create_content(self, options: Mapping[str, Any]) -> SurfaceContent:
         return SurfaceContent(self, options)
@@ -49,7 +56,7 @@ class SurfaceMode(Mode):
         if stride > 1 and not self.capabilities.preview_stride:
             raise ValueError(f"{self.label} extracts at full resolution only (stride 1)")
         options = self.resolve_options(options)
-        image = item.vtk_image() if hasattr(item, "vtk_image") else item.to_vtk(local=True)
+        image = item.vtk_image() if hasattr(item, "vtk_image") else shared_image(item)
         compile_seconds = _warm_up(self, options, image) if self.compiled else 0.0
         algorithm = self.make_filter(options, float(iso), int(stride))
         algorithm.SetInputDataObject(image)
@@ -63,6 +70,36 @@ class SurfaceMode(Mode):
             stats.update(self.statistics(polydata))
         stats.update({"seconds": seconds, "compile_seconds": compile_seconds})
         return SurfaceResult(polydata, stats)
+
+    def estimate_triangles(self, item, iso: float, *, stride: int = 1, limit: int | None = None,
+                           progress=None) -> int | None:
+        """How many triangles :meth:`extract` will make for ``item`` at ``iso``, without extracting: None when the
+        mode cannot count, or when ``limit`` is given and the mode cannot make more than that on this grid."""
+        if self.count is None:
+            return None
+        array = item.volume.array if hasattr(item, "volume") else item.array
+        if limit is not None and self.bound is not None:
+            shape = tuple(-(-n // stride) for n in array.shape)
+            if self.bound(shape) <= limit:
+                return None
+        return int(self.count(array, float(iso), int(stride), progress))
+
+
+def shared_image(volume):
+    """A ``vtkImageData`` of a :class:`~app.volume.Volume` in its volume frame (origin 0, identity direction) on the
+    volume's own memory: extracting the surface of a large volume does not hold its samples twice."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+
+    array = np.ascontiguousarray(volume.array)
+    nz, ny, nx = array.shape
+    image = vtkImageData()
+    image.SetDimensions(nx, ny, nz)
+    image.SetSpacing(*map(float, volume.spacing))
+    scalars = numpy_to_vtk(array.reshape(-1), deep=False)
+    scalars.SetName("scalars")
+    image.GetPointData().SetScalars(scalars)
+    return image
 
 
 _WARM: set[tuple[str, str]] = set()
@@ -132,6 +169,50 @@ def _voxel_filter(class_name: str):
     return make
 
 
+def _marching_cubes_count(array, iso: float, stride: int, progress) -> int:
+    """Our marching cubes' counting pass: exact for ours, within the ambiguous cells for VTK's case table."""
+    from algorithms.surfaces.marching_cubes import count_triangles
+
+    return count_triangles(array, iso, stride=stride, progress=progress)
+
+
+def _cell_bound(shape) -> int:
+    """At most 5 triangles per cell (the largest case of the marching-cubes tables)."""
+    cells = int(np.prod([max(n - 1, 0) for n in shape]))
+    return 5 * cells
+
+
+def _visible_face_count(array, iso: float, stride: int, progress) -> int:
+    """Two triangles per visible voxel face (voxels at or above ``iso``; outside the volume counts as empty),
+    counted slab by slab so no array of the volume's size is made."""
+    from algorithms.common.progress import report
+
+    if stride != 1:
+        raise ValueError("voxel surfaces are extracted at full resolution only (stride 1)")
+    nz = array.shape[0]
+    faces = 0
+    below = None
+    step = max(1, 4_000_000 // max(array.shape[1] * array.shape[2], 1))
+    for start in range(0, nz, step):
+        solid = array[start:start + step] >= iso
+        faces += int(np.count_nonzero(solid[:, :, 1:] != solid[:, :, :-1]))
+        faces += int(np.count_nonzero(solid[:, :, 0])) + int(np.count_nonzero(solid[:, :, -1]))
+        faces += int(np.count_nonzero(solid[:, 1:, :] != solid[:, :-1, :]))
+        faces += int(np.count_nonzero(solid[:, 0, :])) + int(np.count_nonzero(solid[:, -1, :]))
+        faces += int(np.count_nonzero(solid[1:] != solid[:-1]))
+        faces += int(np.count_nonzero(solid[0] != below)) if below is not None else int(np.count_nonzero(solid[0]))
+        below = solid[-1].copy()
+        report(progress, min(1.0, (start + step) / nz))
+    faces += int(np.count_nonzero(below))
+    return 2 * faces
+
+
+def _voxel_bound(shape) -> int:
+    """Each voxel has six faces of two triangles; between two voxels at most one of them is visible."""
+    nz, ny, nx = shape
+    return 2 * ((nx + 1) * ny * nz + nx * (ny + 1) * nz + nx * ny * (nz + 1))
+
+
 def _voxel_memory(polydata) -> dict:
     """The voxel surfaces' memory as source 000 counts it (strips without indices) and as VTK uploads it."""
     from algorithms.compare.voxel_surfaces import polydata_memory
@@ -148,35 +229,38 @@ def _voxel_memory(polydata) -> dict:
 
 
 SURFACE = dict(group="Surfaces", input="volume", output="surface")
-ISO = Capabilities(uses_iso=True)
+ISO = Capabilities(uses_iso=True, accepts_selection=True)
+
+MARCHING_COUNT = dict(count=_marching_cubes_count, bound=_cell_bound)
+VOXEL_COUNT = dict(count=_visible_face_count, bound=_voxel_bound)
 
 register_mode(SurfaceMode(
     "marching-cubes", "Marching cubes", "Our marching cubes with Paul Bourke's case tables, shared edge vertices and "
     "gradient normals (source 001)", origin="ours", **SURFACE, make_filter=_marching_cubes, compiled=True,
-    capabilities=Capabilities(uses_iso=True, preview_stride=2),
+    capabilities=Capabilities(uses_iso=True, preview_stride=2, accepts_selection=True), unique_points=True, **MARCHING_COUNT,
 ))
 register_mode(SurfaceMode(
     "flying-edges", "Flying edges", "Isosurface by VTK's vtkFlyingEdges3D (parallel, with gradient normals)",
-    origin="VTK", **SURFACE, make_filter=_vtk_contour("vtkFlyingEdges3D"), capabilities=ISO,
+    origin="VTK", **SURFACE, make_filter=_vtk_contour("vtkFlyingEdges3D"), capabilities=ISO, **MARCHING_COUNT,
 ))
 register_mode(SurfaceMode(
     "vtk-marching-cubes", "Marching cubes", "Isosurface by VTK's classic vtkMarchingCubes (with gradient normals)",
-    origin="VTK", **SURFACE, make_filter=_vtk_contour("vtkMarchingCubes"), capabilities=ISO,
+    origin="VTK", **SURFACE, make_filter=_vtk_contour("vtkMarchingCubes"), capabilities=ISO, **MARCHING_COUNT,
 ))
 register_mode(SurfaceMode(
     "voxel-faces", "Voxel faces", "Every visible face of the voxels at or above the threshold, 4 vertices and "
     "6 indices each (source 000)", origin="ours", **SURFACE, make_filter=_voxel_filter("VoxelFacesFilter"),
-    flat_shading=True, compiled=True, statistics=_voxel_memory, capabilities=ISO,
+    flat_shading=True, compiled=True, statistics=_voxel_memory, capabilities=ISO, **VOXEL_COUNT,
 ))
 register_mode(SurfaceMode(
     "tower", "Tower strips", "The same faces as triangle strips: one per cluster boundary and slice, plus top and "
     "bottom runs (source 000's tower algorithm)", origin="ours", **SURFACE, make_filter=_voxel_filter("TowerFilter"),
-    flat_shading=True, compiled=True, statistics=_voxel_memory, capabilities=ISO,
+    flat_shading=True, compiled=True, statistics=_voxel_memory, capabilities=ISO, **VOXEL_COUNT,
 ))
 register_mode(SurfaceMode(
     "hybrid", "Hybrid strips", "Tower strips, with strips of at most L vertices turned back into indexed triangles "
     "(source 000)", origin="ours", **SURFACE, make_filter=_voxel_filter("HybridFilter"), flat_shading=True,
-    compiled=True, statistics=_voxel_memory, capabilities=ISO,
+    compiled=True, statistics=_voxel_memory, capabilities=ISO, **VOXEL_COUNT,
     options=(Option("max_strip_vertices", "int", 10, "hybrid: strips of at most this many vertices become "
                     "indexed triangles (source 000 used 10)", minimum=4, maximum=1_000_000),),
 ))

@@ -23,7 +23,7 @@ class VolumeMapperMode(Mode):
 
 
 VOLUME = dict(group="Volume rendering", origin="VTK", input="volume", output="volume",
-              capabilities=Capabilities(uses_transfer_function=True))
+              capabilities=Capabilities(uses_transfer_function=True, accepts_selection=True))
 
 register_mode(VolumeMapperMode(
     "vtk-gpu", "GPU ray casting", "VTK's vtkGPUVolumeRayCastMapper (OpenGL; Mesa llvmpipe without a GPU)",

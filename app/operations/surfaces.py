@@ -15,7 +15,7 @@ class ExtractSurface(Operation):
     """A volume's (or field's) isosurface, extracted by a surface mode, as a mesh item in LPS mm."""
 
     def run(self, items: Mapping[str, Any], options: Mapping[str, Any], *, progress=None) -> OperationResult:
-        from ..meshing import default_iso, merge_duplicate_points, to_world
+        from ..meshing import EmptySurfaceError, check_isovalue, default_iso, merge_duplicate_points, to_world
         from ..modes import get_mode
         from ..scene import MeshItem
 
@@ -27,12 +27,15 @@ class ExtractSurface(Operation):
         method = get_mode(options["method"])
         if method.output != "surface" or method.input != "volume":
             raise ValueError(f"{method.name!r} does not extract surfaces from volumes")
+        check_isovalue(volume, float(iso), source.name)
         result = method.extract(source, iso, progress=progress)
         if result.stats["triangles"] == 0:
             lo, hi = volume.value_range
-            raise ValueError(f"{source.name} has no surface at {iso:g} {volume.units_label} (its values run from "
-                             f"{lo:g} to {hi:g}); choose an isovalue inside that range")
-        world = merge_duplicate_points(to_world(result.polydata, volume, "LPS"))
+            raise EmptySurfaceError(f"{source.name}: no surface at {iso:g} {volume.units_label} (its values run from "
+                                    f"{lo:g} to {hi:g}); choose an isovalue inside that range")
+        world = to_world(result.polydata, volume, "LPS")
+        if not method.unique_points:
+            world = merge_duplicate_points(world)
         name = f"{source.name} surface {iso:g} {volume.units_label}"
         item = MeshItem(name, polydata=world, metadata={"source": source.name, "method": method.name, "iso": iso})
         return OperationResult(item, {**result.stats, "iso": iso, "method": method.name})

@@ -6,6 +6,13 @@
   heat map of the difference with the foreground PSNR, RMSE and SSIM. VTK's picture is rendered on the owner thread
   (OpenGL) in an off-screen scene; ours and the difference off it.
 
+Legends have a fixed meaning: their scale comes from a tolerance the user sets (the comparison modes' ``tolerance``
+option in mm, default a tenth of the smallest voxel spacing; ``difference_tolerance`` in fractions of full scale,
+default 0.05), never from the data's extremes. The distance view is blue at 0, white at the tolerance and red from
+twice it; the heat map runs from black at 0 to pale yellow at twice the tolerance. So rounding noise (1e-5 mm between
+marching cubes and flying edges) shows as the calm colour it is, and two views with the same tolerance can be read
+side by side. Both have a colour bar with labels in mm or in fractions of full scale.
+
 Tests, benchmarks and the window share :func:`surface_distance` and :func:`image_difference`.
 """
 
@@ -22,9 +29,24 @@ from algorithms.common.progress import ProgressCallback, scaled
 from .content import IGNORE, REBUILD, REFRAME, Frame, ViewContent, ViewInputs
 from .images import filter_frame, frame_camera
 from .props import distance_actor
-from .surfaces import SurfaceResult
+from .surfaces import LitContent, SurfaceResult
 
 DISTANCE_ARRAY = "distance_mm"
+#: The options of a comparison that set its legend, not the mode under test.
+LEGEND_OPTIONS = ("tolerance", "difference_tolerance")
+#: Default scale of the image-difference legend (fraction of full scale, about 13 of 255 grey levels).
+DIFFERENCE_TOLERANCE = 0.05
+
+
+def tested_options(options) -> dict[str, Any]:
+    """A comparison's options without the legend's: what the mode under test takes."""
+    return {k: v for k, v in dict(options or {}).items() if k not in LEGEND_OPTIONS}
+
+
+def distance_tolerance(options, volume) -> float:
+    """The distance legend's tolerance (mm): the option, else a tenth of the smallest voxel spacing."""
+    value = (options or {}).get("tolerance")
+    return float(value) if value is not None else 0.1 * float(min(volume.spacing))
 
 
 def surface_distance(item, test: str, reference: str, iso: float, *, options=None,
@@ -42,7 +64,7 @@ def surface_distance(item, test: str, reference: str, iso: float, *, options=Non
 
     from ..modes import get_mode
 
-    ours = get_mode(test).extract(item, iso, options=options, progress=scaled(progress, 0.0, 0.3))
+    ours = get_mode(test).extract(item, iso, options=tested_options(options), progress=scaled(progress, 0.0, 0.3))
     theirs = get_mode(reference).extract(item, iso, progress=scaled(progress, 0.3, 0.5))
     points_a, triangles_a = surface_arrays(ours.polydata)
     points_b, triangles_b = surface_arrays(theirs.polydata)
@@ -76,15 +98,20 @@ class ImageDifference:
     numbers: dict[str, Any] = field(default_factory=dict)
 
 
-def image_difference(test: np.ndarray, reference: np.ndarray, *, background=(0.0, 0.0, 0.0)) -> ImageDifference:
-    """Compare two renderings of the same view (``(h, w, 3)`` uint8 or float in [0, 1])."""
+def image_difference(test: np.ndarray, reference: np.ndarray, *, background=(0.0, 0.0, 0.0),
+                     tolerance: float = DIFFERENCE_TOLERANCE) -> ImageDifference:
+    """Compare two renderings of the same view (``(h, w, 3)`` uint8 or float in [0, 1]); the heat map spans 0 to
+    twice ``tolerance`` (fractions of full scale), whatever the differences are."""
     from algorithms.compare.image_metrics import compare_images, difference_heatmap
 
+    if not (np.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(f"the difference tolerance must be a positive fraction of full scale, got {tolerance}")
     comparison = compare_images(test, reference, background=background)
-    return ImageDifference(difference_heatmap(test, reference), comparison.as_dict())
+    numbers = {**comparison.as_dict(), "legend_top": 2.0 * tolerance}
+    return ImageDifference(difference_heatmap(test, reference, vmax=2.0 * tolerance), numbers)
 
 
-class SurfaceDistanceContent(ViewContent):
+class SurfaceDistanceContent(LitContent):
     """The test mode's surface coloured by its distance to the reference mode's surface."""
 
     result: SurfaceResult | None = None
@@ -95,10 +122,12 @@ class SurfaceDistanceContent(ViewContent):
 
     def install(self, renderer, inputs: ViewInputs, prepared: SurfaceResult) -> None:
         self.result = prepared
-        self.stats = dict(prepared.stats)
-        actor, bar = distance_actor(prepared.polydata, inputs.item.local_to_world, DISTANCE_ARRAY)
+        tolerance = distance_tolerance(self.options, inputs.volume)
+        self.stats = {**prepared.stats, "tolerance_mm": tolerance}
+        actor, bar = distance_actor(prepared.polydata, inputs.item.local_to_world, DISTANCE_ARRAY,
+                                    tolerance_mm=tolerance)
         self.scalar_bar = bar
-        self._replace_props(renderer, [actor, bar])
+        self._replace_props(renderer, [actor, bar], detail_mm=max(inputs.volume.spacing))
 
     def react(self, change: str, renderer, inputs: ViewInputs) -> str:
         return REBUILD if change == "iso" else IGNORE
@@ -109,8 +138,8 @@ class SurfaceDistanceContent(ViewContent):
         s = self.stats
         if not s:
             return ""
-        return (f"distance to {get_mode(self.mode.reference).label}: Hausdorff {s['hausdorff_mm']:.3f} mm, "
-                f"mean {s['mean_mm']:.4f} mm, 95 % {s['p95_mm']:.3f} mm")
+        return (f"distance to {get_mode(self.mode.reference).label}: Hausdorff {s['hausdorff_mm']:.3g} mm, "
+                f"mean {s['mean_mm']:.3g} mm, 95 % {s['p95_mm']:.3g} mm (white: {s['tolerance_mm']:.3g} mm)")
 
 
 class ImageDifferenceContent(ViewContent):
@@ -124,15 +153,17 @@ class ImageDifferenceContent(ViewContent):
     def prepare(self, inputs: ViewInputs, *, preview: bool = False, progress=None):
         from ..modes import get_mode
 
-        return get_mode(self.mode.test).make_filter(self.options, inputs)
+        return get_mode(self.mode.test).make_filter(tested_options(self.options), inputs)
 
     def install(self, renderer, inputs: ViewInputs, prepared) -> None:
         from ..modes import get_mode
         from .offscreen import OffscreenScene
-        from .props import volume_prop
+        from .props import difference_bar, volume_prop
 
         self.close()
         self.filter, self._inputs = prepared, inputs
+        self._tolerance = float(self.options.get("difference_tolerance") or DIFFERENCE_TOLERANCE)
+        self._replace_props(renderer, [difference_bar(self._tolerance)])
         self.reference = OffscreenScene((64, 64), inputs.background)
         self.reference.add(volume_prop(inputs.volume, inputs.transfer_function,
                                        mapper=get_mode(self.mode.reference).mapper,
@@ -161,7 +192,7 @@ class ImageDifferenceContent(ViewContent):
 
         def work(progress=None) -> Frame:
             ours = filter_frame(algorithm, local, size, background, progress)
-            difference = image_difference(ours.image, reference, background=background)
+            difference = image_difference(ours.image, reference, background=background, tolerance=self._tolerance)
             return Frame(difference.heatmap, {**difference.numbers, "seconds": ours.seconds}, ours.seconds)
 
         return work

@@ -40,7 +40,9 @@ class ViewInputs:
     ``item`` is the scene item on show (a volume, a field, a mesh...). ``iso`` is in the item's value units,
     ``sample_distance`` in mm (None: half the smallest voxel spacing), ``background`` an RGB triple in [0, 1].
     ``interactive`` is True in a window view (VTK's mappers may then coarsen their sampling while the camera moves);
-    off-screen renders keep every setting fixed.
+    off-screen renders keep every setting fixed. ``tools`` are the cut-away tools (:class:`algorithms.fields.
+    selection.Tool`, LPS mm) evaluated ``cut_evaluation`` (``binary`` or ``distance``); ``tools_moving`` while one
+    is dragged (contents take the cheap path and refine when it is False again).
     """
 
     item: "Item"
@@ -49,6 +51,9 @@ class ViewInputs:
     sample_distance: float | None = None
     background: tuple[float, float, float] = (0.0, 0.0, 0.0)
     interactive: bool = False
+    tools: tuple = ()
+    cut_evaluation: str = "binary"
+    tools_moving: bool = False
 
     @property
     def volume(self):
@@ -57,6 +62,20 @@ class ViewInputs:
         if volume is None:
             raise ValueError(f"{self.item.name} is a {self.item.kind}, not a volume")
         return volume
+
+    def tool_set(self, *, moving: bool | None = None):
+        """The visible tools as a :class:`~algorithms.common.selection.ToolSet` in the item's volume frame, or None
+        (no tools, or an item without a volume)."""
+        if not self.tools or getattr(self.item, "volume", None) is None:
+            return None
+        from ..selection import tool_set_for
+
+        return tool_set_for(self.volume, self.tools, evaluation=self.cut_evaluation,
+                            moving=self.tools_moving if moving is None else moving,
+                            frame_to_world=self.item.local_to_world)
+
+    def visible_tools(self) -> list:
+        return [tool for tool in self.tools if tool.visible]
 
     def effective_sample_distance(self) -> float:
         from .props import default_sample_distance
@@ -125,7 +144,8 @@ class ViewContent(ABC):
         self.props = list(props)
 
     def react(self, change: str, renderer, inputs: ViewInputs) -> str:
-        """A shared input changed (``"iso"``, ``"transfer_function"``, ``"sample_distance"``, ``"background"``):
+        """A shared input changed (``"iso"``, ``"transfer_function"``, ``"sample_distance"``, ``"background"``,
+        ``"selection"`` - the cut-away tools):
         update props in place when that is cheap and say what else is needed (REBUILD, REDRAW, REFRAME, IGNORE)."""
         return IGNORE
 

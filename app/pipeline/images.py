@@ -6,6 +6,12 @@ encodings, gradients - between frames and rebuilds it only when its input, trans
 changes; a frame costs one filter update. Frames are made off the owner thread (the filter is touched by one frame
 job at a time) and composited over the view's background.
 
+Accumulation while idle: with the mode option ``passes`` > 1, once a full-size frame of a camera is on show the
+pipeline asks for more frames of the same camera and size (see :meth:`RendererContent.refining`); each renders the
+next jitter pass (``SetPassIndex``) and shows the running mean of the passes so far, so a still view refines in
+place and a moved camera starts again from pass 0. The passes are a pure function of camera and size, so the
+command line (which renders every pass before it writes) and a window view show the same final frame.
+
 Texture slicing drawn by OpenGL (``compositing=gl``) is the one software mode whose compositing happens in the
 renderer: its slices and textures are made off the owner thread and handed to VTK actors on it.
 """
@@ -29,6 +35,7 @@ _SHOWN_STATS = {
     "early_terminated": lambda v: f"{100 * v:.0f} % of rays terminated early",
     "slices": lambda v: f"slices {v:.3g}",
     "voxels_composited": lambda v: f"voxels composited {v:.3g}",
+    "passes": lambda v: f"{v:.0f} passes",
 }
 
 
@@ -48,12 +55,15 @@ def rgba_to_rgb(rgba: np.ndarray, background) -> np.ndarray:
     return np.clip(np.rint(colour + (1.0 - alpha) * back), 0, 255).astype(np.uint8)
 
 
-def filter_frame(algorithm, camera: Camera, size: tuple[int, int], background, progress=None) -> Frame:
-    """Run a renderer filter for one camera (its input's frame) and size; the frame over ``background``."""
+def filter_frame(algorithm, camera: Camera, size: tuple[int, int], background, progress=None, *,
+                 pass_index: int = 0) -> Frame:
+    """Run a renderer filter for one camera (its input's frame), size and jitter pass; the frame over
+    ``background``."""
     from vtkmodules.util import numpy_support
 
     algorithm.SetCamera(camera)
     algorithm.SetImageSize(*size)
+    algorithm.SetPassIndex(pass_index)
     start = time.perf_counter()
     output = run_algorithm(algorithm, progress)
     seconds = time.perf_counter() - start
@@ -68,11 +78,31 @@ def format_frame_stats(stats: dict[str, Any]) -> str:
     return ", ".join(show(stats[key]) for key, show in _SHOWN_STATS.items() if key in stats)
 
 
+def _frame_key(camera: Camera, size: tuple[int, int], background) -> tuple:
+    """What a frame depends on besides the filter's set-up: camera, size and background."""
+    return (tuple(map(float, camera.position)), tuple(map(float, camera.focal_point)),
+            tuple(map(float, camera.view_up)), float(camera.view_angle), bool(camera.parallel_projection),
+            float(camera.parallel_scale), tuple(size), tuple(background))
+
+
 class RendererContent(ViewContent):
-    """One of our software renderers, run through its VTK filter."""
+    """One of our software renderers, run through its VTK filter (jitter passes accumulated while idle)."""
 
     uses_frames = True
     filter = None
+
+    def __init__(self, mode, options) -> None:
+        super().__init__(mode, options)
+        self._sum: np.ndarray | None = None  # running sum of the passes shown for ``_key``
+        self._key: tuple | None = None
+        self._passes_done = 0
+
+    @property
+    def passes(self) -> int:
+        return int(self.options.get("passes") or 1) if self.options.get("jitter", False) else 1
+
+    def _restart(self) -> None:
+        self._sum, self._key, self._passes_done = None, None, 0
 
     def prepare(self, inputs: ViewInputs, *, preview: bool = False, progress=None):
         return self.mode.make_filter(self.options, inputs)
@@ -80,26 +110,53 @@ class RendererContent(ViewContent):
     def install(self, renderer, inputs: ViewInputs, prepared) -> None:
         self.filter = prepared
         self._inputs = inputs
+        self._restart()
 
     def react(self, change: str, renderer, inputs: ViewInputs) -> str:
         if self.filter is None:
             return IGNORE
         if change in ("transfer_function", "sample_distance"):
+            self._restart()
             self.mode.configure_filter(self.filter, self.options, inputs)
             return REFRAME
-        return REFRAME if change == "background" else IGNORE
+        if change == "background":
+            self._restart()
+            return REFRAME
+        if change == "selection":
+            # Per-sample tools: the filter keeps its set-up, the next frame is cut (no data rewrite).
+            self._restart()
+            self.filter.SetTools(inputs.tool_set())
+            return REFRAME
+        return IGNORE
 
     def frame_work(self, renderer, camera: Camera, size: tuple[int, int]):
         algorithm, inputs = self.filter, self._inputs
         local = frame_camera(self.mode, camera, inputs)
         background = tuple(inputs.background)
+        key = _frame_key(local, size, background)
+        if key == self._key and 0 < self._passes_done < self.passes:
+            pass_index, previous = self._passes_done, self._sum  # refine the frame on show
+        else:
+            pass_index, previous = 0, None
 
         def work(progress=None) -> Frame:
-            return filter_frame(algorithm, local, size, background, progress)
+            frame = filter_frame(algorithm, local, size, background, progress, pass_index=pass_index)
+            total = frame.image.astype(np.float64) if previous is None else previous + frame.image
+            if pass_index > 0:
+                frame.image = np.clip(np.rint(total / (pass_index + 1)), 0, 255).astype(np.uint8)
+            frame.stats["passes"] = pass_index + 1
+            frame.stats["_accumulation"] = (key, pass_index + 1, total)
+            return frame
 
         return work
 
+    def refining(self) -> bool:
+        """True while the frame on show is a jitter pass short of ``passes`` (the pipeline then asks for the next
+        one, for the same camera and size, while the camera rests)."""
+        return self.filter is not None and 0 < self._passes_done < self.passes
+
     def show_frame(self, renderer, frame: Frame) -> None:
+        self._key, self._passes_done, self._sum = frame.stats.pop("_accumulation", (None, 0, None))
         super().show_frame(renderer, frame)
         self.stats = dict(frame.stats)
 
@@ -127,14 +184,15 @@ class SliceStackContent(ViewContent):
     def react(self, change: str, renderer, inputs: ViewInputs) -> str:
         if change == "transfer_function":
             return REBUILD  # new textures for every slice
-        return REFRAME if change == "background" else IGNORE
+        return REFRAME if change in ("background", "selection") else IGNORE
 
     def frame_work(self, renderer, camera: Camera, size: tuple[int, int]):
         stack, local = self.stack, camera_in_frame(camera, self._inputs.item.local_to_world)
+        tools = self._inputs.tool_set()
 
         def work(progress=None) -> Frame:
             start = time.perf_counter()
-            parts, stats = stack.compute(local, *size, progress=progress)
+            parts, stats = stack.compute(local, *size, tools=tools, progress=progress)
             return Frame(None, {**stats, "parts": parts}, time.perf_counter() - start, pixels=size)
 
         return work

@@ -10,7 +10,8 @@ command line), so the same logic serves both:
 - a newer request supersedes an older one (its result is dropped, the job cancelled);
 - while the isovalue is dragged, surfaces are prepared with the mode's own coarse path
   (``Capabilities.preview_stride``) and refined when the drag ends;
-- software renderers draw previews at a third of the pixels while the camera moves and a full frame once it rests;
+- software renderers draw previews at a third of the pixels while the camera moves and a full frame once it rests
+  (then further jitter passes of it, if the content asks for them: ``refining()``);
 - ``ready`` is emitted when the full-quality picture of the current inputs is on the renderer.
 
 The host listens to four signals: ``changed(still)`` (render the window now; ``still=False`` lets VTK's volume
@@ -120,6 +121,17 @@ class ViewPipeline:
             raise ValueError(f"the sample distance must be a positive number of mm, got {millimetres}")
         self.inputs.sample_distance = millimetres
         self._input_changed("sample_distance")
+
+    def set_tools(self, tools, evaluation: str = "binary", *, moving: bool = False) -> None:
+        """New cut-away tools (LPS mm) or evaluation; ``moving`` while a tool is dragged: our renderers then draw
+        previews without cut normals (the cheap path of source 002, 2.5.2) and surfaces their coarse path, and the
+        final call with ``moving=False`` refines."""
+        if self.inputs is None:
+            return
+        self.inputs.tools = tuple(tools)
+        self.inputs.cut_evaluation = evaluation
+        self.inputs.tools_moving = bool(moving)
+        self._input_changed("selection", preview=moving)
 
     def set_overlays(self, items) -> None:
         """Show other items of the scene beside the content: meshes as translucent surfaces (patient coordinates).
@@ -248,7 +260,7 @@ class ViewPipeline:
             self._prepare(preview=preview)
         elif action == REFRAME:
             self._not_ready()
-            self._request_frame(preview=False)
+            self._request_frame(preview=preview)
         elif action == REDRAW:
             self._not_ready()
             self.changed.emit(True)
@@ -349,6 +361,8 @@ class ViewPipeline:
             self._frame_times.append(frame.seconds)
             self._emit_status()
             self.changed.emit(True)
+            if self._frame_wanted is None and full and not self._moving and self._refining():
+                self._frame_wanted = size  # the next jitter pass of the same camera and size (accumulation)
             if self._frame_wanted is not None:
                 self._start_frame()
             else:
@@ -379,10 +393,15 @@ class ViewPipeline:
         if self._content_busy or self._content_preview or not self._content_shown:
             return
         if self.content.uses_frames and (self._frame_busy or self._frame_wanted is not None
-                                         or self.last_frame is None or not self._frame_full):
+                                         or self.last_frame is None or not self._frame_full or self._refining()):
             return
         self._is_ready = True
         self.ready.emit()
+
+    def _refining(self) -> bool:
+        """Whether the content wants more frames of the camera on show (jitter passes accumulated while idle)."""
+        refining = getattr(self.content, "refining", None)
+        return bool(refining is not None and refining())
 
     def _render_started(self, *args) -> None:
         self._render_start = time.perf_counter()

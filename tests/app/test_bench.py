@@ -148,7 +148,13 @@ def test_marching_cubes_bench_extracts_vtks_surface_and_times_every_method(tmp_p
     data = check_run_json(files["marching_cubes.json"])
     assert data["benchmark"] == "marching-cubes" and len(data["rows"]) == len(rows)
     assert list(data["numba_compile_s"]) == ["int16"] and data["numba_compile_s"]["int16"] > 0
-    assert set(data["numba_cache"]) == {"classify_layers", "fill_slabs", "vertex_attributes", "merge_on_samples"}
+    assert set(data["numba_cache"]) == {"count_layers", "fill_layers", "merge_on_samples"}
+    summary = data["ours_over_flying_edges_stdthread"]
+    assert len(summary) == len(cases)
+    for entry in summary:
+        group = groups[(entry["dataset"], f"{entry['iso']:.6g}", str(entry["normals"]))]
+        assert entry["ratio"] == pytest.approx(number(group[methods[0]], "median_s")
+                                               / number(group[methods[3]], "median_s"), rel=ROUNDING)
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -234,8 +240,10 @@ def test_render_bench_images_agree_with_vtk_and_accelerations_keep_the_image(tmp
     monkeypatch.setattr(render, "QUICK_FRAMES", frames)
     monkeypatch.setattr(slicing, "QUICK_SLICE_COUNTS", (32,))
     renderers = ["vtk-gpu", "vtk-cpu", "vtk-gpu-shaded", "vtk-cpu-shaded"]
-    renderers += [f"raymarch-{lighting}" for lighting in LIGHTING_MODELS]
+    renderers += list(render.SOFTWARE_RENDERERS)
     renderers += [name for name, _ in render.EXTRA_RENDERERS]
+    assert {f"raymarch-{lighting}" for lighting in LIGHTING_MODELS} <= set(renderers)
+    assert {"slicing-shaded", "raymarch-emission-jittered", "slicing-jittered"} <= set(renderers)
     expected = ["render_summary.csv", "render_ablation.csv", "render_frames.csv", "render_frame_times.png",
                 "render_medians.png", "render_difference_raymarch-emission_vs_vtk-gpu.png", "render.json"]
     expected += [f"render_start_{name}.png" for name in renderers]
@@ -260,9 +268,28 @@ def test_render_bench_images_agree_with_vtk_and_accelerations_keep_the_image(tmp
         psnr = number(row, "psnr_foreground_db")
         if row["renderer"] == row["reference"]:
             assert psnr == math.inf and number(row, "ssim") == pytest.approx(1.0)
+        elif row["reference"] == "none":  # scatter: VTK has no such light model to compare with
+            assert row["renderer"] == "raymarch-scatter" and math.isnan(psnr)
         else:
             assert math.isfinite(psnr) and psnr > 15.0, row
         assert math.isnan(number(row, "compile_seconds")) != row["renderer"].startswith("raymarch")
+        shaded = row["renderer"].startswith("raymarch-phong") or "shaded" in row["renderer"]
+        assert row["reference"] in (("vtk-gpu-shaded",) if shaded else ("vtk-gpu", "none"))
+        # Against the CPU ray caster of the same shading: every one of ours but scatter.
+        against_cpu = number(row, "psnr_foreground_db_vs_vtk_cpu")
+        if row["reference"] == "none":
+            assert row["reference_cpu"] == "none" and math.isnan(against_cpu)
+        elif row["renderer"] != row["reference_cpu"]:
+            assert row["reference_cpu"] == row["reference"].replace("gpu", "cpu")
+            assert math.isfinite(against_cpu) and against_cpu > 15.0, row
+        # Jittered renderers (and only they) also report the mean of the jitter passes of their start frame.
+        jittered = "jittered" in row["renderer"] or row["renderer"] == "raymarch-scatter"
+        assert row["jitter"] == str(jittered)
+        passes = number(row, "psnr_foreground_db_passes")
+        if jittered and row["reference"] != "none":
+            assert math.isfinite(passes) and passes > 15.0, row
+        else:
+            assert math.isnan(passes)
 
     _, ablation = read_csv(files["render_ablation.csv"])
     by_setting = {row["setting"]: row for row in ablation}
@@ -292,6 +319,7 @@ def test_render_bench_images_agree_with_vtk_and_accelerations_keep_the_image(tmp
 
     data = check_run_json(files["render.json"])
     assert data["image_size"] == [size, size] and data["frames"] == frames
+    assert data["jitter_passes_accumulated"] == render.PASSES
     assert data["volume"]["shape"] == [108, 256, 256]  # the full phantom, even in a quick run
     check_slicing(files, slicing.QUICK_SLICE_COUNTS, slicing.QUICK_SWITCH_AZIMUTHS)
 
@@ -347,10 +375,12 @@ def test_shear_warp_bench_ratios_match_times_and_ablations_turn_accelerations_of
     monkeypatch.setattr(shear_warp, "TRANSPARENT_PERCENT", percents)
     monkeypatch.setattr(shear_warp, "QUICK_FRAMES", frames)
     monkeypatch.setattr(shear_warp, "QUICK_CT_FRAMES", ct_frames)
-    tables = ["shear_warp_sizes.csv", "shear_warp_transparency.csv", "shear_warp_ct.csv", "shear_warp_banding.csv"]
+    monkeypatch.setattr(shear_warp, "ANISOTROPIC_SHAPE", (48, 96, 96))  # the real CT's voxel size, a smaller grid
+    tables = ["shear_warp_sizes.csv", "shear_warp_transparency.csv", "shear_warp_ct.csv", "shear_warp_banding.csv",
+              "shear_warp_anisotropic.csv"]
     images = ["shear_warp_ct_start.png", "shear_warp_ct_vtk_gpu.png", "shear_warp_ct_vtk_cpu.png",
               "shear_warp_ct_difference_vs_vtk_gpu.png", "shear_warp_ct_banding_grid8_vs_grid128.png",
-              "shear_warp_sphere_banding.png"]
+              "shear_warp_sphere_banding.png", "shear_warp_anisotropic_frames.png"]
     progress = Progress()
     files = check_written(shear_warp.run(tmp_path, quick=True, progress=progress), tmp_path,
                           tables + images + ["shear_warp_tests_1_2.png", "shear_warp_ct.png", "shear_warp.json"])
@@ -402,6 +432,27 @@ def test_shear_warp_bench_ratios_match_times_and_ablations_turn_accelerations_of
     # 100 % non-transparent volumes have nothing to skip; half transparent ones do.
     skipped = [number(row, "voxels_skipped_transparent") for row in size_rows + transparency]
     assert skipped[:-1] == [0.0] * (len(skipped) - 1) and skipped[-1] > 0
+
+    # The anisotropic CT: each projection against VTK's ray casters with the same projection.
+    assert png_size(files["shear_warp_anisotropic_frames.png"]) == (2 * size, 2 * size)
+    _, anisotropic = read_csv(files["shear_warp_anisotropic.csv"])
+    names = ["vtk-cpu", "vtk-gpu", *shear_warp.ANISOTROPIC_VARIANTS]
+    assert [(row["projection"], row["renderer"]) for row in anisotropic] == [
+        (projection, name) for projection in ("parallel", "perspective") for name in names]
+    for projection in ("parallel", "perspective"):
+        group = {row["renderer"]: row for row in anisotropic if row["projection"] == projection}
+        cpu = number(group["vtk-cpu"], "median_frame_seconds")
+        for name, row in group.items():
+            assert row["frames"] == str(ct_frames) and number(row, "median_frame_seconds") > 0
+            assert number(row, "ratio_to_vtk_cpu") == pytest.approx(number(row, "median_frame_seconds") / cpu,
+                                                                    rel=ROUNDING)
+            psnr = number(row, "psnr_foreground_db_vs_vtk_gpu")
+            assert psnr == math.inf if name == "vtk-gpu" else (math.isfinite(psnr) and psnr > 15.0), (projection, row)
+        # By default the 1.5 mm slices are resampled to the 0.96 mm in-plane spacing; the own grid is kept as is.
+        resampled = [float(v) for v in group["shear-warp (default: resampled)"]["rendered_spacing_mm"].split("x")]
+        assert resampled == pytest.approx([0.96, 0.96, 0.96], rel=0.03)
+        assert group["shear-warp (own grid)"]["rendered_spacing_mm"] == "0.96x0.96x1.5"
+    assert json.loads(files["shear_warp.json"].read_text())["anisotropic_ct"]["spacing_mm"] == [0.96, 0.96, 1.5]
 
     _, banding = read_csv(files["shear_warp_banding.csv"])
     assert [int(row["normal_grid"]) for row in banding] == list(shear_warp.BANDING_GRIDS)

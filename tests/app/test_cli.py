@@ -231,7 +231,9 @@ def test_marching_cubes_mesh_for_a_clinician(tmp_path):
     assert report["written"]["triangles"] < 0.6 * report["triangles"]  # decimated by half
     sidecar = json.loads(Path(str(out) + ".json").read_text())
     assert sidecar["parameters"] == {"stride": 1, "close_edges": False, "smooth_iterations": 20, "smooth_passband": 0.1,
-                                     "decimate": 0.5, "largest_component": True}
+                                     "decimate": 0.5, "largest_component": True,
+                                     "decimation": "quadric (vtkQuadricDecimation, volume preserving)",
+                                     "decimation_achieved": 0.5}
     assert sidecar["validity"] == validity and sidecar["method"] == "marching-cubes"
     from vtkmodules.vtkIOGeometry import vtkSTLReader
 

@@ -106,10 +106,13 @@ def test_validity_report(terraced_sphere, two_spheres, open_sphere):
                                      "triangles", "area_mm2", "volume_mm3"}
     assert "watertight, manifold, outward; 1 piece(s)" in report.summary()
     assert mesh_cleanup.validity_report(two_spheres).components == 2
-    assert "not watertight" in mesh_cleanup.validity_report(open_sphere).summary()
+    open_report = mesh_cleanup.validity_report(open_sphere)
+    assert "not watertight" in open_report.summary()
+    # An open or inside-out surface encloses no volume: the report gives none rather than a guess.
+    assert open_report.volume_mm3 is None and "no enclosed volume" in open_report.summary()
     inward = marching_cubes(-sphere_field((30, 30, 30), RADIUS), 0.0)  # the outside of a ball is the solid
     inward_report = mesh_cleanup.validity_report(inward.to_polydata())
-    assert inward_report.volume_mm3 < 0 and not inward_report.outward_normals
+    assert inward_report.watertight and not inward_report.outward_normals and inward_report.volume_mm3 is None
 
 
 def test_apply_runs_the_chosen_steps_in_order(two_spheres):

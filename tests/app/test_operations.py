@@ -31,7 +31,7 @@ def test_extract_surface_makes_a_mesh_in_patient_coordinates(head):
 
 def test_extract_surface_refuses_an_empty_surface_and_unknown_methods(head):
     operation = get_operation("extract-surface")
-    with pytest.raises(ValueError, match="has no surface at 5000 HU"):
+    with pytest.raises(ValueError, match="no surface at 5000 HU, which is above the largest value"):
         operation.run({"volume": head}, operation.resolve_options({"iso": 5000}))
     with pytest.raises(ValueError, match="--method must be one of"):
         operation.resolve_options({"method": "raymarch"})

@@ -32,21 +32,27 @@ def test_a_mode_registered_at_run_time_reaches_the_command_line(test_mode, capsy
     assert listed["test-shifted-faces"]["output"] == "surface" and listed["raymarch"]["output"] == "image"
 
     # Its option is a flag of `render`, and it renders (a plain 2-voxel block: the faces are there at shift 0 and
-    # gone when the shift lifts the threshold above the block's value).
+    # gone when the shift lifts the threshold above the block's value: an empty surface is a one-line error and no
+    # picture, issue 17).
     from app.io import save_volume
     from app.volume import Volume
 
     block = np.zeros((6, 6, 6), np.int16)
     block[2:4, 2:4, 2:4] = 100
     path = save_volume(Volume(block, units="HU", modality="CT"), tmp_path / "block.nii.gz")
-    reports = {}
-    for shift in ("0", "200"):
-        out = tmp_path / f"shift{shift}.png"
-        assert main(["render", str(path), "--mode", "test-shifted-faces", "--iso", "50", "--shift", shift,
-                     "-o", str(out), "--size", "64", "64", "--json"]) == 0
-        reports[shift] = json.loads(capsys.readouterr().out)
-    assert reports["0"]["surface"]["triangles"] == 2 * 24 and reports["0"]["options"] == {"shift": 0.0}
-    assert reports["200"]["surface"]["triangles"] == 0
+    out = tmp_path / "shift0.png"
+    assert main(["render", str(path), "--mode", "test-shifted-faces", "--iso", "50", "--shift", "0",
+                 "-o", str(out), "--size", "64", "64", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["surface"]["triangles"] == 2 * 24 and report["options"] == {"shift": 0.0} and out.exists()
+    out = tmp_path / "shift200.png"
+    assert main(["render", str(path), "--mode", "test-shifted-faces", "--iso", "50", "--shift", "200",
+                 "-o", str(out), "--size", "64", "64", "--json"]) == 1
+    captured = capsys.readouterr()
+    assert captured.out == "" and not out.exists()
+    assert captured.err.strip().splitlines() == [
+        "voxelscope: error: block.nii.gz: no surface to draw at 50 HU: there is none; the values run from 0 to 100 "
+        "HU; nothing was written; choose another isovalue"]
     # The mode validates its flag; other modes refuse it by name.
     assert main(["render", str(path), "--mode", "test-shifted-faces", "--shift", "1e9", "-o",
                  str(tmp_path / "x.png")]) == 1
@@ -98,7 +104,7 @@ def test_registration_refuses_duplicates_and_clashing_options(test_mode):
 def test_options_are_typed_and_checked():
     raymarch = get_mode("raymarch")
     assert raymarch.resolve_options({"lighting": "scatter", "light_samples": "8"}) == {
-        "lighting": "scatter", "samples": None, "light_samples": 8}
+        "lighting": "scatter", "samples": None, "light_samples": 8, "jitter": True, "passes": 1}
     with pytest.raises(ValueError, match="--lighting must be one of emission, phong, scatter"):
         raymarch.resolve_options({"lighting": "sun"})
     with pytest.raises(ValueError, match="--light-samples must be a whole number"):

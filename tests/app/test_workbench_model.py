@@ -40,7 +40,7 @@ def test_setters_validate_and_emit_only_on_change(model):
         model.set_window_level(0, 40)
     with pytest.raises(ValueError, match="layout must be one of"):
         model.set_layout("3x3")
-    with pytest.raises(ValueError, match="unknown mode 'nope'"):
+    with pytest.raises(ValueError, match="unknown render mode 'nope'"):
         model.set_view_mode(0, "nope")
     modes = record(model.view_mode_changed)
     model.set_view_mode(2, "raymarch")

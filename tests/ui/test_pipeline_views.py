@@ -4,6 +4,8 @@ progress and abort driving the status bar."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
@@ -100,10 +102,16 @@ def test_our_filters_progress_reaches_the_status_bar_and_cancel_aborts_them(qtbo
     filters, events = [], []
     original_init = MarchingCubesFilter.__init__
 
+    def record(caller, event):
+        events.append((id(caller), caller.GetProgress()))
+        # The status bar shows progress on a 200 ms timer (so fast work does not redraw it); on a quiet machine the
+        # whole extraction can take less than that, so each report waits a little to let the bar show it.
+        time.sleep(0.1)
+
     def spying_init(self, *args, **kwargs):
         original_init(self, *args, **kwargs)
         filters.append(self)
-        self.AddObserver("ProgressEvent", lambda caller, event: events.append((id(caller), caller.GetProgress())))
+        self.AddObserver("ProgressEvent", record)
 
     monkeypatch.setattr(MarchingCubesFilter, "__init__", spying_init)
     shown: list[int] = []

@@ -159,6 +159,35 @@ def test_export_with_capped_edges_re_extracts_a_closed_surface(qtbot, window, sm
     assert sidecar["validity"]["watertight"] and sidecar["validity"]["outward_normals"]
 
 
+def test_a_very_large_surface_asks_before_it_is_written(qtbot, window, small_ct_file, tmp_path, monkeypatch):
+    import app.meshing
+    from ui.dialogs import ExportOptionsDialog
+
+    open_and_wait(qtbot, window, small_ct_file)
+    monkeypatch.setattr(app.meshing, "MAX_TRIANGLES", 1000)  # the sample's skull has tens of thousands
+    out = tmp_path / "large.stl"
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *args, **kwargs: (str(out), "STL (*.stl)"))
+    monkeypatch.setattr(ExportOptionsDialog, "ask", classmethod(lambda cls, path, parent=None: {
+        "coordinates": "LPS", "cleanup": {}}))
+    questions, answers = [], [QMessageBox.No, QMessageBox.Yes]
+    monkeypatch.setattr(QMessageBox, "question", lambda parent, title, text, *a: (questions.append(text),
+                                                                                   answers.pop(0))[1])
+
+    def exported():
+        with qtbot.waitSignal(window.tasks.ended, timeout=60_000, check_params_cb=lambda t: "Exporting" in t.label):
+            window.export_mesh()
+
+    exported()  # declined: nothing written
+    assert len(questions) == 1 and "more than the 1,000" in questions[0] and "large.stl" in questions[0]
+    assert not out.exists() and not Path(str(out) + ".json").exists()
+    ended = []
+    window.tasks.ended.connect(lambda task: ended.append(task.label) if "Exporting" in task.label else None)
+    window.export_mesh()  # accepted: the export runs again without the limit
+    qtbot.waitUntil(lambda: len(ended) == 2, timeout=120_000)
+    sidecar = json.loads(Path(str(out) + ".json").read_text())
+    assert len(questions) == 2 and sidecar["counts"]["triangles"] > 1000
+
+
 def test_export_options_dialog_reports_every_choice(qtbot):
     from ui.dialogs import ExportOptionsDialog
 

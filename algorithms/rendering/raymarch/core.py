@@ -13,29 +13,38 @@ a homogeneous slab of thickness ``L`` transmits ``(1 - alpha) ** (L / unit_dista
 ``sigma = -ln(1 - alpha) / unit_distance``. That is source 001's Beer-Lambert product ``I / I0 = (1/2) ** (eps *
 integral of density)`` in base e instead of base 2.
 
-Sampling follows VTK's GPU ray caster without jittering (measured against ``vtkGPUVolumeRayCastMapper``): the first
+Sampling follows VTK's GPU ray caster (measured against ``vtkGPUVolumeRayCastMapper``): without jittering the first
 sample lies one sample distance past the box entry, samples continue every ``d`` mm while inside the box of voxel
-centres, and the last partial distance is dropped (no sample at the exit, no length weighting). A ray from a camera
-inside the box starts at the camera. Colours and opacities are interpolated in the (opacity-corrected) table separately
-and premultiplied per sample, as VTK does.
+centres, and the last partial distance is dropped (no sample at the exit, no length weighting). With ``jitter``
+(the application's default) each ray's samples move back by ``(1 - j) d``, ``j`` in [0, 1) from the pixel's
+interleaved-gradient-noise value (:func:`algorithms.common.sampling.jitter_offset`): rings where a smooth surface
+crosses the sample grid at a slant ("wood grain") become fine noise, stable from frame to frame; successive
+``pass_index`` values step ``j`` by the golden ratio, so the average of passes converges (accumulation while the
+camera rests). A ray from a camera inside the box starts at the camera. Colours and opacities are interpolated in
+the (opacity-corrected) table separately and premultiplied per sample, as VTK does.
 
 Lighting models:
 
 ``"emission"``
     The transfer function's colour is emitted as is (source 002's emission-absorption model, 2.3.4).
 ``"phong"``
-    Blinn-Phong (source 002, 2.3.6) with VTK's terms: ``c' = (ambient + diffuse |n.l|) c + specular |n.h| ** s``
-    (white highlight, two-sided like VTK's default renderer). The normal is ``n = -grad f / |grad f|`` from
-    central differences one voxel wide of the interpolated field (source 002, 2.4.4), i.e. outward where values
+    Local illumination from gradients (source 002, 2.3.6) in exactly VTK's light model, so shaded frames of ours and
+    of ``vtkGPUVolumeRayCastMapper`` agree: ``c' = (ambient + diffuse |n.l|) c + specular max(r.v, 0) ** s`` with
+    Phong's reflection vector ``r = 2 (n.l) n - l`` (source 002 writes Blinn's half vector ``h``; with a headlight
+    ``n.h = n.l``, a broader highlight than VTK's ``r.v = 2 (n.l)^2 - 1``), a white highlight, two-sided like VTK's
+    default renderer, and VTK's headlight: a light at the camera position, ``l = v`` towards the camera from the
+    ray's box entry point. The normal is ``n = -grad f / |grad f|`` from central differences one voxel wide of the
+    interpolated field (source 002, 2.4.4; VTK's GPU mapper differentiates the same way), i.e. outward where values
     increase inwards, as in CT. In homogeneous regions the gradient has no useful direction: the shaded colour is
-    blended with the unshaded one by ``w = min(1, |grad f| / gradient_threshold)`` (value units per mm; 0 shades
-    every sample with a non-zero gradient), which skips shading where ``|grad f| = 0`` and fades it in up to the
-    threshold. (VTK's GPU mapper uses Phong's reflection vector for its headlight, a narrower highlight, so shaded
-    frames of the two differ more than unshaded ones.)
+    blended with the unshaded one by ``w = min(1, |grad f| / gradient_threshold)`` (value units per mm; 0, the
+    default and VTK's behaviour without a gradient-opacity function, shades every sample with a non-zero
+    gradient).
 ``"scatter"``
     Single scattering of a directional light (source 001, technique 2): at each visible sample,
     ``light_samples`` samples towards the light, midpoints of equal parts of the segment up to the box exit, give
-    the light that reaches it, ``T = exp(-delta * sum(sigma_j))`` (Beer-Lambert); the sample then scatters
+    the light that reaches it, ``T = exp(-delta * sum(sigma_j))`` (Beer-Lambert; the segment ends where the path
+    leaves the box around the bricks that hold any opacity, since beyond it the extinction is zero, so the light
+    samples are spent where they matter; with jitter they move by the pixel's offset too); the sample then scatters
     ``c * scatter_albedo * p(theta) * T`` towards the camera, which the compositing attenuates on the way out
     (source 001's ``I / I0 = sum (I / I_p) * a * (I_p / I0)``). ``p`` is the Henyey-Greenstein phase function with
     asymmetry ``phase``, normalised so isotropic scattering (``phase = 0``) gives 1; there is no ambient term.
@@ -57,7 +66,8 @@ Accelerations, neither of which changes the image beyond the stated bound:
   largest colour in the table), so each channel changes by at most that much (0.01 at the default 0.99; VTK's
   GPU mapper stops at ``1 - 1/255``).
 
-Performance: the volume is kept as a private contiguous float32 copy; the kernels work in index space with the
+Performance: the volume is sampled in its own dtype (int16 CT stays int16), the caller's array itself when it is
+read-only (the VTK filter passes VTK's memory), else a private copy; the kernels work in index space with the
 opacity correction folded into the table (numba, ``parallel=True`` over image rows, interleaved so that every
 thread gets rows from all parts of the image). The set-up (conversion, bricks, table correction) happens in the
 constructor, so a frame at reduced size for interactive use costs only its rays.
@@ -99,6 +109,7 @@ from scipy.ndimage import distance_transform_cdt
 from ...common.camera import Camera, checked_camera
 from ...common.progress import ProgressCallback, report, scaled
 from ...common.render_result import RenderResult
+from ...common.selection import ToolSet, packed_tools
 from ...common.transfer import TransferTable, checked_table
 from ...common.validation import (
     validated_count,
@@ -108,6 +119,7 @@ from ...common.validation import (
     validated_shape,
     validated_spacing,
 )
+from ...common.sampling import sampled_volume
 from . import kernels
 
 LIGHTING_MODELS = ("emission", "phong", "scatter")
@@ -116,6 +128,13 @@ _LIGHTING_CODES = {"emission": kernels.EMISSION, "phong": kernels.PHONG, "scatte
 _ROWS_PER_BAND = 64
 #: Opacity per unit distance is capped below 1 for the extinction used by the light march (sigma stays finite).
 _MAX_OPACITY = 1.0 - 1e-6
+
+
+def validated_pass(pass_index) -> int:
+    """A jitter pass index: a non-negative integer."""
+    if isinstance(pass_index, bool) or not isinstance(pass_index, (int, np.integer)) or pass_index < 0:
+        raise ValueError(f"pass_index must be a non-negative integer, got {pass_index!r}")
+    return int(pass_index)
 
 
 def checked_lighting(lighting: str) -> str:
@@ -181,7 +200,8 @@ class RaymarchRenderer:
     Parameters
     ----------
     volume_array : ndarray, shape (nz, ny, nx)
-        Scalar volume indexed ``[k, j, i]`` (any real dtype; kept as float32). At least 2 voxels per axis.
+        Scalar volume indexed ``[k, j, i]`` (any real dtype, sampled in that dtype; a read-only array is used as it
+        is, anything else is copied). At least 2 voxels per axis.
     spacing : (sx, sy, sz)
         Voxel size in mm; voxel ``(i, j, k)`` sits at ``(i sx, j sy, k sz)`` in the volume frame.
     table : TransferTable
@@ -209,6 +229,8 @@ class RaymarchRenderer:
         Fraction of the extinguished light that is scattered, in [0, 1] (``"scatter"``).
     phase : float
         Henyey-Greenstein asymmetry in (-1, 1): 0 isotropic, > 0 forward scattering (``"scatter"``).
+    jitter : bool
+        Offset each ray's samples by its pixel's jitter (see the module notes); False keeps VTK's unjittered rule.
     progress : callable, optional
         Called with a fraction in [0, 1] during the set-up; may raise OperationCancelled.
 
@@ -245,6 +267,7 @@ class RaymarchRenderer:
         brick_size: int = 8,
         scatter_albedo: float = 1.0,
         phase: float = 0.0,
+        jitter: bool = False,
         progress: ProgressCallback = None,
     ) -> None:
         checked_table(table)
@@ -279,7 +302,7 @@ class RaymarchRenderer:
         if not -1.0 < phase < 1.0:
             raise ValueError(f"phase (Henyey-Greenstein asymmetry) must lie in (-1, 1), got {phase}")
 
-        volume = validated_float_volume(volume_array)
+        volume = sampled_volume(volume_array)
         report(progress, 0.1)
         self.volume = volume
         self.shape = volume.shape
@@ -298,6 +321,7 @@ class RaymarchRenderer:
         self.brick_size = brick_size
         self.scatter_albedo = scatter_albedo
         self.phase = phase
+        self.jitter = bool(jitter)
         self._light = light
 
         # Classification: the table corrected for the sample distance, the extinction (per mm) for the light march.
@@ -309,8 +333,15 @@ class RaymarchRenderer:
         self._tight = np.zeros(6)
         self._any_visible = True
         self._empty_fraction = 0.0
-        if self.empty_space_skipping:
-            self._classify_bricks(scaled(progress, 0.1, 1.0))
+        nz, ny, nx = self.shape
+        self._light_box = np.array([0.0, 0.0, 0.0, nx - 1.0, ny - 1.0, nz - 1.0])
+        # The bricks also bound the light march (beyond them the extinction is zero), with or without skipping,
+        # so switching skipping off leaves every image bit-identical.
+        self._classify_bricks(scaled(progress, 0.1, 1.0))
+        if self._any_visible:
+            self._light_box = self._tight.copy()
+        if not self.empty_space_skipping:
+            self._empty_fraction = 0.0
         report(progress, 1.0)
 
     # -- set-up --------------------------------------------------------------------------------------------
@@ -346,8 +377,17 @@ class RaymarchRenderer:
         return self._empty_fraction
 
     # -- frames --------------------------------------------------------------------------------------------
-    def render(self, camera: Camera, width: int, height: int, *, progress: ProgressCallback = None) -> RenderResult:
+    def render(self, camera: Camera, width: int, height: int, *, pass_index: int = 0, tools: ToolSet | None = None,
+               progress: ProgressCallback = None) -> RenderResult:
         """One frame seen by ``camera`` (volume frame) at ``width`` x ``height`` pixels.
+
+        ``tools`` (:class:`~algorithms.common.selection.ToolSet` in the volume frame) cuts the volume away per sample
+        (source 002, 2.5 and 3.3.1): removed samples contribute nothing, the cut face is shaded with the tool's
+        normal (``"phong"``), removed matter casts no shadow (``"scatter"``); the set-up is untouched, so moving a
+        tool costs nothing but the frame.
+
+        ``pass_index`` selects the jitter pass (0 for a still frame; averaging passes 0 .. n - 1 converges towards
+        the integral along every ray); it does not matter without jitter.
 
         Returns
         -------
@@ -364,7 +404,10 @@ class RaymarchRenderer:
         image = np.empty((height, width, 4), dtype=np.float32)
         counts = np.zeros((height, 4), dtype=np.int64)
         termination = self.early_termination if self.early_termination is not None else np.inf
+        pass_index = validated_pass(pass_index)
+        eye = np.asarray(camera.position, dtype=np.float64)
         threads = numba.get_num_threads()
+        packed = packed_tools(tools)
         for band_start in range(0, height, _ROWS_PER_BAND):
             band = np.arange(band_start, min(band_start + _ROWS_PER_BAND, height), dtype=np.int64)
             # Interleave rows so each thread's contiguous share of the prange holds rows from the whole band.
@@ -375,7 +418,8 @@ class RaymarchRenderer:
                 self._brick_of_cell, self.brick_size, self._tight, self._any_visible, self.empty_space_skipping,
                 _LIGHTING_CODES[self.lighting], self._light, self.light_direction is None, self.ambient,
                 self.diffuse, self.specular, self.specular_power, self.gradient_threshold, termination,
-                self.light_samples, self.scatter_albedo, self.phase, image, counts,
+                self.light_samples, self.scatter_albedo, self.phase, self.jitter, pass_index, eye, self._light_box,
+                packed, image, counts,
             )
             report(progress, band[-1] / max(height - 1, 1))
         hits, evaluated, skipped, stopped = (int(v) for v in counts.sum(axis=0))
@@ -387,6 +431,7 @@ class RaymarchRenderer:
             "samples_per_ray": evaluated / hits if hits else 0.0,
             "early_terminated": stopped / hits if hits else 0.0,
             "skipped_fraction": skipped / marched if marched else 0.0,
+            "tools": float(len(tools)) if tools is not None else 0.0,
         }
         return RenderResult(image, stats)
 

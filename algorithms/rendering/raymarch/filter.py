@@ -59,5 +59,5 @@ class RaymarchFilter(RendererFilter):
 
     def _create_renderer(self, array, spacing, table, progress) -> RaymarchRenderer:
         return RaymarchRenderer(array, spacing, table, sample_distance=self._sample_distance,
-                                lighting=self._lighting, light_samples=self._light_samples,
+                                lighting=self._lighting, light_samples=self._light_samples, jitter=self._jitter,
                                 progress=progress, **self._material_keywords())

@@ -4,10 +4,12 @@ Coordinates inside the kernels are *index* coordinates: voxel ``(i, j, k)`` sits
 ray is ``p(t) = o + t * d`` with ``t`` in millimetres along the unit world direction, so its index-space
 direction is ``d / spacing``. The volume array is ``(nz, ny, nx)`` float32, indexed ``[k, j, i]``.
 
-Per-ray sampling (the rule of VTK's GPU ray caster without jittering): the ray enters the box of voxel centres
+Per-ray sampling (the rule of VTK's GPU ray caster): the ray enters the box of voxel centres
 ``[0, nx-1] x [0, ny-1] x [0, nz-1]`` at ``t_in`` and leaves it at ``t_out``; samples are taken at
-``t_in + k * d`` for ``k = 1 .. n``, ``n = floor((t_out - t_in) / d)`` with ``d`` the sample distance (mm), i.e.
-the first sample lies one sample distance inside the box and the last partial distance is dropped.
+``t_in + (k - 1 + j) * d`` for ``k = 1 .. n`` while inside the box, with ``d`` the sample distance (mm) and ``j``
+the pixel's jitter in [0, 1) (:func:`algorithms.common.sampling.jitter_offset`), or ``j = 1`` without jittering:
+then the first sample lies one sample distance inside the box and the last partial distance is dropped, exactly
+as VTK does with ``UseJittering`` off (with it on, VTK offsets by a noise texture value in [0, 1) too).
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ import numpy as np
 from numba import njit, prange
 
 from ...common.pixel_rays import pixel_ray
-from ...common.sampling import cell_of, gradient, sample_volume, trilinear
+from ...common.sampling import cell_of, gradient, jitter_offset, sample_volume, second_jitter_offset, trilinear
+from ...common.selection import (cut_band, cut_normals_on, leap_distance, removal, removal_normal, tool_count,
+                                 visibility)
 
 #: Lighting model codes shared with :mod:`algorithms.rendering.raymarch.core`.
 EMISSION = 0
@@ -125,82 +129,98 @@ def _lookup_extinction(extinction, position):
 
 
 @njit(cache=True, nogil=True)
-def _light_transmittance(volume, x, y, z, lx, ly, lz, extinction, table_min, table_scale, light_samples):
-    """Beer-Lambert transmittance from index point ``(x, y, z)`` to the box exit towards the light.
+def _light_transmittance(volume, x, y, z, lx, ly, lz, extinction, table_min, table_scale, light_samples, tight,
+                         offset, tools, sx, sy, sz):
+    """Beer-Lambert transmittance from index point ``(x, y, z)`` towards the light, up to where the path leaves
+    the index box ``tight`` (``(low_x, low_y, low_z, high_x, high_y, high_z)``: the box of voxel centres, or the
+    box around the bricks that can hold any opacity, outside which the extinction is exactly zero).
 
     ``(lx, ly, lz)`` is the index-space direction towards the light (unit world direction / spacing). The segment
-    is split into ``light_samples`` equal parts sampled at their midpoints, a Riemann sum of source 001's integral:
-    ``T = exp(-delta * sum(sigma_j))`` with ``sigma`` the extinction per mm.
+    is split into ``light_samples`` equal parts sampled at ``offset`` (0.5: their midpoints; the pixel's jitter
+    otherwise), a Riemann sum of source 001's integral: ``T = exp(-delta * sum(sigma_j))`` with ``sigma`` the
+    extinction per mm. Cut-away ``tools`` (:mod:`algorithms.common.selection`) remove absorbing matter on the way
+    too (``sx, sy, sz``: the spacing, to evaluate them in mm).
     """
-    nz, ny, nx = volume.shape
-    t_near, t_far = _slab(x, y, z, lx, ly, lz, 0.0, 0.0, 0.0, nx - 1.0, ny - 1.0, nz - 1.0)
-    if not t_far > 0.0:
+    t_near, t_far = _slab(x, y, z, lx, ly, lz, tight[0], tight[1], tight[2], tight[3], tight[4], tight[5])
+    if not t_far > max(t_near, 0.0):
         return 1.0
-    delta = t_far / light_samples
+    t_start = max(t_near, 0.0)
+    delta = (t_far - t_start) / light_samples
     optical_depth = 0.0
     for j in range(light_samples):
-        t = (j + 0.5) * delta
-        value = sample_volume(volume, x + t * lx, y + t * ly, z + t * lz)
-        optical_depth += _lookup_extinction(extinction, (value - table_min) * table_scale)
+        t = t_start + (j + offset) * delta
+        px, py, pz = x + t * lx, y + t * ly, z + t * lz
+        value = sample_volume(volume, px, py, pz)
+        sigma = _lookup_extinction(extinction, (value - table_min) * table_scale)
+        if sigma > 0.0 and tool_count(tools) > 0:
+            sigma *= visibility(tools, removal(tools, px * sx, py * sy, pz * sz))
+        optical_depth += sigma
     return math.exp(-delta * optical_depth)
 
 
 @njit(cache=True, nogil=True)
-def _sample_range(ox, oy, oz, dx, dy, dz, nx, ny, nz, sample_distance, skipping, any_visible, tight_low, tight_high):
-    """Which samples of a ray to march: ``(hit, t_in, first, last, n_samples)``.
+def _sample_range(ox, oy, oz, dx, dy, dz, nx, ny, nz, sample_distance, skipping, any_visible, tight_low, tight_high,
+                  offset):
+    """Which samples of a ray to march: ``(hit, t_0, first, last, n_samples)``.
 
-    The ray ``o + t * d`` (index space, ``t`` in mm) samples at ``t_in + k * sample_distance`` for
-    ``k = 1 .. n_samples``;
-    ``first .. last`` is the part that can hold visible samples (all of it without empty-space skipping, else the
-    part inside ``tight_low .. tight_high``, the index box around the non-empty bricks, given as two
-    ``(x, y, z)`` tuples; ``first > last`` when none can).
+    The ray ``o + t * d`` (index space, ``t`` in mm) enters the box of voxel centres at ``t_in`` and samples at
+    ``t_0 + k * sample_distance`` for ``k = 1 .. n_samples``, ``t_0 = t_in + offset * sample_distance`` with
+    ``offset = j - 1`` in [-1, 0] (the jitter; 0 without it). ``first .. last`` is the part that can hold visible
+    samples (all of it without empty-space skipping, else the part inside ``tight_low .. tight_high``, the index box
+    around the non-empty bricks, given as two ``(x, y, z)`` tuples; ``first > last`` when none can).
     """
     t_in, t_out = _slab(ox, oy, oz, dx, dy, dz, 0.0, 0.0, 0.0, nx - 1.0, ny - 1.0, nz - 1.0)
     t_in = max(t_in, 0.0)
     if not t_out >= t_in:
         return False, 0.0, 1, 0, 0
-    n_samples = int(math.floor((t_out - t_in) / sample_distance + _SAMPLE_EPSILON))
+    t_0 = t_in + offset * sample_distance
+    n_samples = int(math.floor((t_out - t_0) / sample_distance + _SAMPLE_EPSILON))
     first, last = 1, n_samples
     if skipping:
         if not any_visible:
-            return True, t_in, 1, 0, n_samples
+            return True, t_0, 1, 0, n_samples
         # Only the box around the non-empty bricks can hold visible samples; the sample grid stays the same.
         t_low, t_high = _slab(ox, oy, oz, dx, dy, dz, *tight_low, *tight_high)
         if not t_high >= t_low:
-            return True, t_in, 1, 0, n_samples
-        first = max(first, int(math.ceil((t_low - t_in) / sample_distance - _SAMPLE_EPSILON)))
-        last = min(last, int(math.floor((t_high - t_in) / sample_distance + _SAMPLE_EPSILON)))
-    return True, t_in, first, last, n_samples
+            return True, t_0, 1, 0, n_samples
+        first = max(first, int(math.ceil((t_low - t_0) / sample_distance - _SAMPLE_EPSILON)))
+        last = min(last, int(math.floor((t_high - t_0) / sample_distance + _SAMPLE_EPSILON)))
+    return True, t_0, first, last, n_samples
 
 
 @njit(cache=True, nogil=True)
-def _light_vectors(dx, dy, dz, headlight, light_x, light_y, light_z, phase_g):
-    """Unit world vectors towards the light (l) and halfway between l and the camera (h), and the phase value.
+def _light_vectors(dx, dy, dz, headlight, light_x, light_y, light_z, phase_g, parallel, ex, ey, ez, px, py, pz):
+    """Unit world vectors towards the light (l) and towards the viewer (v), and the phase value.
 
-    ``(dx, dy, dz)`` is the unit world ray direction; the camera lies at ``v = -d``. A headlight sits at the camera
-    (``l = v``). The Henyey-Greenstein phase function is normalised so that isotropic scattering gives 1; the
-    scattering angle lies between the light's direction of travel (-l) and the direction towards the camera (v).
+    ``(dx, dy, dz)`` is the unit world ray direction. As in VTK's GPU ray caster, the viewer and a headlight sit at
+    the camera position ``e`` and both directions are taken once per ray, from its box entry point ``p``:
+    ``l = v = (e - p) / |e - p|``, which is ``-d`` for a perspective camera and leans towards the camera position
+    off the image centre for a parallel one. A directional light gives ``l`` itself and ``v = -d``. The
+    Henyey-Greenstein phase function is normalised so that isotropic scattering gives 1; the scattering angle lies
+    between the light's direction of travel (-l) and the direction towards the camera (v).
     """
     vx, vy, vz = -dx, -dy, -dz
     if headlight:
+        if parallel:
+            wx, wy, wz = ex - px, ey - py, ez - pz
+            norm = math.sqrt(wx * wx + wy * wy + wz * wz)
+            if norm > 0.0:
+                vx, vy, vz = wx / norm, wy / norm, wz / norm
         lx, ly, lz = vx, vy, vz
     else:
         lx, ly, lz = light_x, light_y, light_z
-    hx, hy, hz = lx + vx, ly + vy, lz + vz
-    h_norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if h_norm > 0.0:
-        hx, hy, hz = hx / h_norm, hy / h_norm, hz / h_norm
     cos_theta = -(lx * vx + ly * vy + lz * vz)
     g2 = phase_g * phase_g
     phase = (1.0 - g2) / (1.0 + g2 - 2.0 * phase_g * cos_theta) ** 1.5
-    return lx, ly, lz, hx, hy, hz, phase
+    return lx, ly, lz, vx, vy, vz, phase
 
 
 @njit(cache=True, nogil=True)
 def _render_row(
     row, frame, parallel_projection, volume, spacing, sample_distance, table, table_min, table_scale, extinction,
     empty_reach, brick_of_cell, brick_size, tight, any_visible, skipping, lighting, light, headlight, ambient, diffuse,
-    specular, specular_power, gradient_threshold, termination, light_samples, albedo, phase_g, image, counts,
+    specular, specular_power, gradient_threshold, termination, light_samples, albedo, phase_g, jitter, pass_index,
+    eye, light_box, tools, image, counts,
 ):
     """Render one image row (see :func:`render_rows`).
 
@@ -213,6 +233,11 @@ def _render_row(
     inverse_distance = 1.0 / sample_distance
     tight_low, tight_high = (tight[0], tight[1], tight[2]), (tight[3], tight[4], tight[5])
     light_x, light_y, light_z = light[0], light[1], light[2]
+    ex, ey, ez = eye[0], eye[1], eye[2]
+    n_tools = tool_count(tools)
+    tool_normals = n_tools > 0 and cut_normals_on(tools) and lighting == PHONG
+    band = cut_band(tools) if n_tools > 0 else 0.0
+    normal_step = 0.5 * min(sx, min(sy, sz))
     hits = evaluated_total = skipped_total = stopped = 0
     for col in range(width):
         # The ray of pixel (col, row), in the volume frame (mm); then in index space, so t stays in mm.
@@ -223,11 +248,18 @@ def _render_row(
         ix, iy, iz = dx / sx, dy / sy, dz / sz
 
         red = green = blue = alpha = 0.0
+        j = jitter_offset(col, row, pass_index) if jitter else 1.0
         hit, t_in, first, last, n_samples = _sample_range(
-            ox, oy, oz, ix, iy, iz, nx, ny, nz, sample_distance, skipping, any_visible, tight_low, tight_high
+            ox, oy, oz, ix, iy, iz, nx, ny, nz, sample_distance, skipping, any_visible, tight_low, tight_high, j - 1.0
         )
         if hit:
-            lx, ly, lz, hx, hy, hz, phase = _light_vectors(dx, dy, dz, headlight, light_x, light_y, light_z, phase_g)
+            # The box entry point in world mm (t_in + d is the first unjittered sample, t_in the entry).
+            t_entry = t_in + (1.0 - j) * sample_distance
+            lx, ly, lz, vx, vy, vz, phase = _light_vectors(
+                dx, dy, dz, headlight, light_x, light_y, light_z, phase_g, parallel_projection, ex, ey, ez,
+                (ox + t_entry * ix) * sx, (oy + t_entry * iy) * sy, (oz + t_entry * iz) * sz)
+            light_offset = second_jitter_offset(col, row, pass_index) if jitter else 0.5
+            l_dot_v = lx * vx + ly * vy + lz * vz
             # Brick leaping: per axis, the reciprocal direction and which face of a cube of bricks the ray leaves by.
             inverse_x = 1.0 / ix if ix != 0.0 else 0.0
             inverse_y = 1.0 / iy if iy != 0.0 else 0.0
@@ -272,28 +304,58 @@ def _render_row(
                 value = trilinear(volume, i0, j0, k0, fx, fy, fz)
                 evaluated += 1
                 a, entry, fraction = _lookup_alpha(table, (value - table_min) * table_scale)
+                on_cut = False
+                if a > 0.0 and n_tools > 0:
+                    # Source 002, 2.5: the selection test before the sample's colour (binary), or the smooth
+                    # weight of the distance difference (3.3.1); the data volume is never changed.
+                    g = removal(tools, x * sx, y * sy, z * sz)
+                    a *= visibility(tools, g)
+                    on_cut = tool_normals and g < band
+                    if a == 0.0:
+                        # Inside the removed region of exact-distance tools: leap over the samples that are surely
+                        # removed too (the selection's own empty-space skipping; strict, so none is kept).
+                        leap = min(int(math.ceil(leap_distance(tools, g) / sample_distance)) - 1, last - k)
+                        if leap > 0:
+                            skipped += leap
+                            k += leap + 1
+                            continue
                 if a > 0.0:
                     r = table[entry, 0] + fraction * (table[entry + 1, 0] - table[entry, 0])
                     g = table[entry, 1] + fraction * (table[entry + 1, 1] - table[entry, 1])
                     b = table[entry, 2] + fraction * (table[entry + 1, 2] - table[entry, 2])
                     if lighting == PHONG:
-                        gx, gy, gz = gradient(volume, x, y, z, sx, sy, sz)
+                        if on_cut:
+                            # The cut face is shaded with the tool's normal, not the data gradient whose stencil
+                            # reaches into the removed region.
+                            gx, gy, gz = removal_normal(tools, x * sx, y * sy, z * sz, normal_step)
+                        else:
+                            gx, gy, gz = gradient(volume, x, y, z, sx, sy, sz)
                         magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
                         if magnitude > 0.0:
-                            weight = 1.0 if gradient_threshold <= 0.0 else min(1.0, magnitude / gradient_threshold)
-                            # n = -grad / |grad| (outward where values increase inwards, as in CT); the lighting is
-                            # two-sided like VTK's default renderer, so |n.l| and |n.h|.
-                            n_dot_l = abs(gx * lx + gy * ly + gz * lz) / magnitude
-                            n_dot_h = abs(gx * hx + gy * hy + gz * hz) / magnitude
-                            shade = ambient + diffuse * n_dot_l
-                            highlight = specular * n_dot_h**specular_power
+                            weight = (1.0 if gradient_threshold <= 0.0 or on_cut
+                                      else min(1.0, magnitude / gradient_threshold))
+                            # VTK's light model: two-sided diffuse |n.l|; Phong's reflection vector r = 2 (n.l) n - l
+                            # for the specular term max(r.v, 0) ** s, a white highlight (does not depend on the
+                            # sign of n, so the gradient's own direction will do).
+                            n_dot_l = (gx * lx + gy * ly + gz * lz) / magnitude
+                            n_dot_v = (gx * vx + gy * vy + gz * vz) / magnitude
+                            r_dot_v = 2.0 * n_dot_l * n_dot_v - l_dot_v
+                            shade = ambient + diffuse * abs(n_dot_l)
+                            highlight = 0.0
+                            if r_dot_v > 0.0 and n_dot_l != 0.0:
+                                highlight = specular * r_dot_v**specular_power
                             r = (1.0 - weight) * r + weight * (shade * r + highlight)
                             g = (1.0 - weight) * g + weight * (shade * g + highlight)
                             b = (1.0 - weight) * b + weight * (shade * b + highlight)
+                        elif gradient_threshold <= 0.0:
+                            # No gradient, no direction: VTK lights such a sample by the ambient term alone.
+                            r *= ambient
+                            g *= ambient
+                            b *= ambient
                     elif lighting == SCATTER:
                         reaching = _light_transmittance(
                             volume, x, y, z, lx / sx, ly / sy, lz / sz, extinction, table_min, table_scale,
-                            light_samples,
+                            light_samples, light_box, light_offset, tools, sx, sy, sz,
                         )
                         scattered = albedo * phase * reaching
                         r *= scattered
@@ -328,7 +390,8 @@ def _render_row(
 def render_rows(
     rows, frame, parallel_projection, volume, spacing, sample_distance, table, table_min, table_scale, extinction,
     empty_reach, brick_of_cell, brick_size, tight, any_visible, skipping, lighting, light, headlight, ambient, diffuse,
-    specular, specular_power, gradient_threshold, termination, light_samples, albedo, phase_g, image, counts,
+    specular, specular_power, gradient_threshold, termination, light_samples, albedo, phase_g, jitter, pass_index,
+    eye, light_box, tools, image, counts,
 ):
     """Render the image rows listed in ``rows`` into ``image`` ``(h, w, 4)`` (premultiplied RGBA), in parallel.
 
@@ -336,7 +399,10 @@ def render_rows(
     is 0 for a non-empty brick, else the Chebyshev distance (in bricks) to the nearest non-empty one;
     ``brick_of_cell[c]`` is ``c // brick_size`` (looked up: no integer division per sample). ``tight`` is the
     index box ``(low_x, low_y, low_z, high_x, high_y, high_z)`` around the non-empty bricks; ``light`` the unit
-    volume-frame vector towards the light (ignored for a headlight). ``counts[row]`` receives (rays hitting the
+    volume-frame vector towards the light (ignored for a headlight), ``eye`` the camera position (volume frame,
+    mm), ``light_box`` the index box the light march stays in, ``tools`` the packed cut-away tools
+    (:meth:`algorithms.common.selection.ToolSet.packed`, renderer frame). ``jitter`` shifts each ray's samples by its pixel's
+    :func:`~algorithms.common.sampling.jitter_offset` of pass ``pass_index``. ``counts[row]`` receives (rays hitting the
     box, samples evaluated, samples skipped, rays stopped by early termination).
     """
     for r in prange(rows.shape[0]):
@@ -344,5 +410,5 @@ def render_rows(
             rows[r], frame, parallel_projection, volume, spacing, sample_distance, table, table_min, table_scale,
             extinction, empty_reach, brick_of_cell, brick_size, tight, any_visible, skipping, lighting, light,
             headlight, ambient, diffuse, specular, specular_power, gradient_threshold, termination, light_samples,
-            albedo, phase_g, image, counts,
+            albedo, phase_g, jitter, pass_index, eye, light_box, tools, image, counts,
         )

@@ -1,4 +1,4 @@
-"""Shear-warp volume rendering with run-length encoding and early ray termination (parallel projection).
+"""Shear-warp volume rendering with run-length encoding and early ray termination, parallel and perspective.
 
 Method (source 004, chapters 4-5, after Lacroute & Levoy 1994)
 --------------------------------------------------------------
@@ -58,12 +58,16 @@ Design choices
   order (one parallel region per frame; an image partition of the intermediate image, as in Lacroute's parallel
   shear-warp, 1996).
 - *Classification before resampling* (pre-classification, as the source): colours and opacities of voxels are
-  interpolated, not scalar values; VTK's ray casters interpolate the scalars and classify afterwards.
+  interpolated, not scalar values; VTK's ray casters interpolate the scalars and classify afterwards. Jittered
+  frames (``jitter=True``, :mod:`.jitter`) take one sample between each pair of slice crossings at the pixel's
+  jitter and classify the interpolated scalar there (post-classification): the terraces of classified voxels
+  become fine noise that averaged passes remove.
 
 Known quality limits, shown rather than hidden (source 004, section 6.3.1): two resampling passes (slices, then the
 warp) blur; bilinear reconstruction within slices and none across them aliases with sharp transfer functions;
-normal quantisation bands. The renderer supports parallel projection only; the perspective shear-warp of Lacroute
-(1995) is not implemented.
+normal quantisation bands. Perspective cameras are factored after Lacroute (1995): slices scaled and translated onto
+the front slice, a projective warp (:mod:`.perspective`). Anisotropic volumes are resampled to their smallest
+spacing by default, on the fly while encoding (:mod:`.resampling`).
 
 Axis order: volume arrays are ``(nz, ny, nx)``, indexed ``[k, j, i]``; spacing is ``(sx, sy, sz)``; cameras are in
 the volume frame (voxel ``(i, j, k)`` at ``(i sx, j sy, k sz)`` mm). Standard-order arrays are ``[k, j, i]`` of the
@@ -71,7 +75,9 @@ the volume frame (voxel ``(i, j, k)`` at ``(i sx, j sy, k sz)`` mm). Standard-or
 
 Modules: :mod:`.factorisation` (the view factorisation), :mod:`.encoding` (run-length encoded volume, normal
 quantisation), :mod:`.kernels` (numba: classification, normals, encoding, compositing, warp), :mod:`.renderer`
-(:class:`ShearWarpRenderer`), :mod:`.filter` (:class:`ShearWarpFilter`).
+(:class:`ShearWarpRenderer`), :mod:`.filter` (:class:`ShearWarpFilter`), :mod:`.perspective` (Lacroute's
+perspective factorisation, the scanline kernel, the projective warp), :mod:`.resampling` (encoded copies built
+straight from the scalar volume, resampled along coarse axes), :mod:`.jitter` (the post-classified jittered kernel).
 
 References
 ----------
@@ -90,15 +96,18 @@ from .encoding import NormalTable, RunLengthVolume, run_length_encode
 from .factorisation import Factorization, factorize, standard_order, view_matrix
 from .filter import ShearWarpFilter
 from .kernels import find_opaque_run_end
+from .perspective import PerspectiveFactorization, factorize_perspective
 from .renderer import ShearWarpRenderer
 
 __all__ = [
     "Factorization",
     "NormalTable",
+    "PerspectiveFactorization",
     "RunLengthVolume",
     "ShearWarpFilter",
     "ShearWarpRenderer",
     "factorize",
+    "factorize_perspective",
     "find_opaque_run_end",
     "run_length_encode",
     "standard_order",

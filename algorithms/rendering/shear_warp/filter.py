@@ -11,8 +11,8 @@ class ShearWarpFilter(RendererFilter):
     """VTK filter around :class:`ShearWarpRenderer`: ``vtkImageData`` (point scalars) in, RGBA image out.
 
     See :class:`algorithms.common.render_filter.RendererFilter` for the input, output and camera conventions (the
-    camera must be parallel). Shading and early termination are set-up options: a change rebuilds the
-    classification and encodings; a camera change only renders again.
+    camera may be parallel or perspective, outside the volume's box). Shading and early termination are set-up
+    options: a change rebuilds the classification and encodings; a camera change only renders again.
 
     Examples
     --------
@@ -20,7 +20,7 @@ class ShearWarpFilter(RendererFilter):
     >>> f = ShearWarpFilter()
     >>> f.SetInputDataObject(image_from_array(volume, spacing, origin))
     >>> f.SetTransferTable(table)
-    >>> f.SetCamera(camera)          # parallel, in the image's frame
+    >>> f.SetCamera(camera)          # in the image's frame
     >>> f.SetImageSize(512, 512)
     >>> rgba_image = run_algorithm(f)
     """
@@ -31,7 +31,7 @@ class ShearWarpFilter(RendererFilter):
         super().__init__()
         self._shading = False
         self._early_termination: float | None = 0.99
-        self._resample_spacing: float | None = None
+        self._resample_spacing: float | str | None = "auto"
 
     def SetShading(self, shading: bool) -> None:  # noqa: N802 - VTK naming
         self._set("_shading", bool(shading))
@@ -41,9 +41,12 @@ class ShearWarpFilter(RendererFilter):
             raise ValueError(f"early_termination must lie in (0, 1] or be None, got {threshold}")
         self._set("_early_termination", threshold)
 
-    def SetResampleSpacing(self, spacing: float | None) -> None:  # noqa: N802
-        """Resample the volume to about this spacing (mm) before encoding; None keeps the volume's own grid."""
-        if spacing is not None:
+    def SetResampleSpacing(self, spacing: float | str | None) -> None:  # noqa: N802
+        """Render a grid of about this spacing (mm); ``"auto"`` (the default) resamples anisotropic volumes to their
+        smallest spacing; None keeps the volume's own grid."""
+        if spacing == "auto":
+            pass
+        elif spacing is not None:
             spacing = validated_distance(spacing, "resample_spacing")
         self._set("_resample_spacing", spacing)
 
@@ -54,6 +57,7 @@ class ShearWarpFilter(RendererFilter):
         return (self._shading, self._early_termination, self._resample_spacing, self._material)
 
     def _create_renderer(self, array, spacing, table, progress) -> ShearWarpRenderer:
+        # Lazy copies: a frame needs only its principal axis's encoding (a third of the memory for a still image).
         return ShearWarpRenderer(array, spacing, table, shading=self._shading, resample_spacing=self._resample_spacing,
-                                 early_termination=self._early_termination, progress=progress,
-                                 **self._material_keywords())
+                                 early_termination=self._early_termination, jitter=self._jitter, lazy=True,
+                                 progress=progress, **self._material_keywords())

@@ -25,7 +25,9 @@ class TextureSlicingFilter(RendererFilter):
     - ``SetNumberOfSlices(n)``: a fixed number of view-aligned slices (0, the default: one per smallest spacing);
     - ``SetSliceDistance(mm)``: view-aligned slices at most this far apart (None, the default: the smallest
       spacing); giving both a number and a distance fails when the filter runs;
-    - ``SetPrecision("float" | "uint8")``: float compositing, or rounding to 8 bits after every slice.
+    - ``SetPrecision("float" | "uint8")``: float compositing, or rounding to 8 bits after every slice;
+    - ``SetShading(bool)``: light the slices' texels from the volume's gradients (VTK's light model, the material
+      of ``SetMaterial``); ``SetJitter(bool)``: sample each texel anywhere in its slab by its pixel's jitter.
 
     The number of slices and the slice distance apply to view-aligned slices and are ignored in ``"axis"`` mode,
     whose slices are the voxel layers.
@@ -50,6 +52,13 @@ class TextureSlicingFilter(RendererFilter):
         self._slices = 0
         self._slice_distance: float | None = None
         self._precision = "float"
+        self._shading = False
+
+    def SetShading(self, shading: bool) -> None:  # noqa: N802 - VTK naming
+        self._set("_shading", bool(shading))
+
+    def GetShading(self) -> bool:  # noqa: N802
+        return self._shading
 
     def SetMode(self, mode: str) -> None:  # noqa: N802 - VTK naming
         self._set("_mode", checked_mode(mode))
@@ -82,7 +91,7 @@ class TextureSlicingFilter(RendererFilter):
         return self._precision
 
     def _setup_key(self) -> tuple:
-        return (self._mode, self._slices, self._slice_distance, self._precision)
+        return (self._mode, self._slices, self._slice_distance, self._precision, self._shading, self._material)
 
     def _create_renderer(self, array, spacing, table, progress) -> SlicingRenderer:
         view = self._mode == "view"
@@ -90,5 +99,5 @@ class TextureSlicingFilter(RendererFilter):
             array, spacing, table, mode=self._mode, precision=self._precision,
             slices=(self._slices or None) if view else None,
             slice_distance=self._slice_distance if view else None,
-            progress=progress,
+            shading=self._shading, jitter=self._jitter, progress=progress, **self._material_keywords(),
         )

@@ -99,26 +99,29 @@ class SliceStackProp:
             self._actors.append(actor)
         return self._actors[index]
 
-    def update(self, camera: Camera, width: int, height: int, *, progress: ProgressCallback = None) -> dict:
+    def update(self, camera: Camera, width: int, height: int, *, tools=None,
+               progress: ProgressCallback = None) -> dict:
         """Rebuild the slices and textures for ``camera`` (volume frame) and an image of ``width`` x ``height``.
 
         Returns the numbers of :func:`layout_stats` plus ``seconds`` spent here (the textures are uploaded to
         OpenGL at the next render). The same as :meth:`compute` followed by :meth:`show`.
         """
-        parts, stats = self.compute(camera, width, height, progress=progress)
+        parts, stats = self.compute(camera, width, height, tools=tools, progress=progress)
         self.show(parts)
         return stats
 
-    def compute(self, camera: Camera, width: int, height: int, *, progress: ProgressCallback = None):
+    def compute(self, camera: Camera, width: int, height: int, *, tools=None, progress: ProgressCallback = None):
         """The slices and textures for ``camera`` as VTK data objects, without touching the actors, so it may run
-        off the thread that renders. Returns ``(parts, stats)``; hand ``parts`` to :meth:`show` on that thread."""
+        off the thread that renders; ``tools`` (a :class:`~algorithms.common.selection.ToolSet`, volume frame) cut
+        the textures per texel. Returns ``(parts, stats)``; hand ``parts`` to :meth:`show` on that thread."""
         start = time.perf_counter()
         layout = self.slicer.layout(camera, width, height)
         _, triangles, triangle_slice = layout.polygons.fan_triangles()
         first_point = np.cumsum(layout.polygons.counts) - layout.polygons.counts
         total = max(int(layout.visible.sum()), 1)
         parts = []
-        for done, (index, texture) in enumerate(self.slicer.iter_textures(layout)):
+        for done, (index, texture) in enumerate(self.slicer.iter_textures(layout, camera, size=(width, height),
+                                                                              tools=tools)):
             points = layout.polygons.polygon(index)
             polydata = polydata_from_arrays(points, triangles[triangle_slice == index] - first_point[index])
             coordinates = numpy_support.numpy_to_vtk(

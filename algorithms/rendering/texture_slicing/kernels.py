@@ -11,20 +11,42 @@ import math
 from numba import njit, prange
 
 from ...common.pixel_rays import pixel_ray
-from ...common.sampling import sample_volume
+from ...common.sampling import gradient, jitter_offset, sample_volume
+from ...common.selection import cut_band, cut_normals_on, removal, removal_normal, tool_count, visibility
 
 
 @njit(cache=True, nogil=True, parallel=True)
 def fill_textures(volume, inverse_spacing, box_min, box_max, origins, u_steps, v_steps, widths, starts,
-                   row_slices, row_indices, table, table_min, table_scale, out):
+                  row_slices, row_indices, table, table_min, table_scale, shading, material, eye, jitter, pass_index,
+                  frame, parallel, first_columns, top_rows, depth_step, tools, out):
     """Premultiplied RGBA of the trilinear scalar at every texel centre of several slice textures.
 
     Texture ``m`` occupies ``out[starts[m] : starts[m] + height * width]`` (rows of ``widths[m]`` texels); the
     work items are texture rows, ``(row_slices[r], row_indices[r])``, so the threads share rows of all textures.
     Texels farther outside the box than one texel diagonal are never read by bilinear filtering inside the
     polygon; they are set to zero instead of being resampled.
+
+    ``shading``: the colour of a texel with opacity is lit with VTK's light model (as the ray marcher's
+    ``"phong"``): ``(ka + kd |n.l|) c + ks max(r.v, 0) ** p`` with ``(ka, kd, ks, p) = material``, ``n`` the
+    normalised central-difference gradient of the trilinear field (source 002, 2.4.4), a headlight at ``eye``
+    (volume frame, mm): ``l = v`` towards the eye, and ``r = 2 (n.l) n - l``.
+
+    ``jitter`` (pixel-aligned view slices only: texel ``(p, q)`` of slice ``m`` lies on the ray of pixel
+    ``(first_columns[m] + p, top_rows[m] - q)`` of ``frame``, :meth:`Camera.ray_frame`): each texel is sampled
+    ``(j - 1/2) depth_step`` mm further along its pixel's ray, ``j`` the pixel's jitter of pass ``pass_index``,
+    i.e. anywhere in its slab instead of on the slab's middle plane.
+
+    ``tools`` (packed :class:`algorithms.common.selection.ToolSet`, volume frame): texels the tools remove get zero
+    opacity (binary) or their weight (distance), per texel - the data volume is untouched (source 002, 2.5.1 does the
+    same in its fragment shader); shaded texels within the cut band take the tool's normal.
     """
     last = table.shape[0] - 1
+    sx, sy, sz = 1.0 / inverse_spacing[0], 1.0 / inverse_spacing[1], 1.0 / inverse_spacing[2]
+    ambient, diffuse, specular, power = material[0], material[1], material[2], material[3]
+    n_tools = tool_count(tools)
+    tool_normals = n_tools > 0 and shading and cut_normals_on(tools)
+    band = cut_band(tools) if n_tools > 0 else 0.0
+    normal_step = 0.5 * min(sx, min(sy, sz))
     for item in prange(row_slices.shape[0]):
         m = row_slices[item]
         q = row_indices[item]
@@ -41,14 +63,46 @@ def fill_textures(volume, inverse_spacing, box_min, box_max, origins, u_steps, v
                 for channel in range(4):
                     out[base + p, channel] = 0.0
                 continue
-            value = sample_volume(volume, x * inverse_spacing[0], y * inverse_spacing[1], z * inverse_spacing[2])
+            if jitter:
+                col = first_columns[m] + p
+                row = top_rows[m] - q
+                _, _, _, dx, dy, dz = pixel_ray(frame, parallel, col, row)  # f . d = 1: one mm of depth per t
+                shift = (jitter_offset(col, row, pass_index) - 0.5) * depth_step
+                x += shift * dx
+                y += shift * dy
+                z += shift * dz
+            ix, iy, iz = x * inverse_spacing[0], y * inverse_spacing[1], z * inverse_spacing[2]
+            value = sample_volume(volume, ix, iy, iz)
             position = min(max((value - table_min) * table_scale, 0.0), float(last))
             entry = min(int(position), last - 1)
             fraction = position - entry
             alpha = table[entry, 3] + fraction * (table[entry + 1, 3] - table[entry, 3])
+            on_cut = False
+            if alpha > 0.0 and n_tools > 0:
+                g = removal(tools, x, y, z)
+                alpha *= visibility(tools, g)
+                on_cut = tool_normals and g < band
+            shade = 1.0
+            highlight = 0.0
+            if shading and alpha > 0.0:
+                if on_cut:
+                    gx, gy, gz = removal_normal(tools, x, y, z, normal_step)
+                else:
+                    gx, gy, gz = gradient(volume, ix, iy, iz, sx, sy, sz)
+                magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
+                lx, ly, lz = eye[0] - x, eye[1] - y, eye[2] - z
+                distance = math.sqrt(lx * lx + ly * ly + lz * lz)
+                if magnitude > 0.0 and distance > 0.0:
+                    n_dot_l = (gx * lx + gy * ly + gz * lz) / (magnitude * distance)
+                    r_dot_v = 2.0 * n_dot_l * n_dot_l - 1.0  # headlight: l = v
+                    shade = ambient + diffuse * abs(n_dot_l)
+                    if r_dot_v > 0.0 and n_dot_l != 0.0:
+                        highlight = specular * r_dot_v**power
+                else:
+                    shade = ambient
             for channel in range(3):
                 colour = table[entry, channel] + fraction * (table[entry + 1, channel] - table[entry, channel])
-                out[base + p, channel] = alpha * colour
+                out[base + p, channel] = alpha * (shade * colour + highlight)
             out[base + p, 3] = alpha
 
 

@@ -7,6 +7,7 @@ in float32 (or rounding to 8 bits after every slice, as a framebuffer does). See
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Iterator
 
@@ -16,14 +17,15 @@ from ...common.camera import Camera, checked_camera
 from ...common.mesh import csr_ranks
 from ...common.progress import ProgressCallback, report
 from ...common.render_result import RenderResult
+from ...common.selection import ToolSet, packed_tools
 from ...common.transfer import TransferTable, checked_table
 from ...common.validation import (
     validated_count,
     validated_distance,
-    validated_float_volume,
     validated_image_size,
     validated_spacing,
 )
+from ...common.sampling import sampled_volume
 from . import kernels
 from .geometry import MERGE_TOLERANCE, MODES, SlicePolygons, axis_aligned_slices, slice_count, slice_polygons
 from .textures import (
@@ -78,6 +80,15 @@ class SlicingRenderer:
         Texel size (mm) of view-aligned slice textures on a grid anchored at each polygon's corner. Default: one
         texel per pixel, its centre where the pixel's ray meets the slice (the texture resolution of a 3D texture
         sampled per fragment). Axis-aligned textures are the voxel grid of their layer.
+    shading : bool
+        Light each texel from the gradient of the volume (source 002, 2.4.4) with VTK's light model, as the ray
+        marcher's ``"phong"``: ambient, two-sided diffuse, Phong specular, a headlight at the camera.
+    ambient, diffuse, specular, specular_power : float
+        The material (``vtkVolumeProperty``'s terms; defaults VTK's 0.1, 0.7, 0.2, 10).
+    jitter : bool
+        Sample each texel of a pixel-aligned view slice anywhere in its slab, by its pixel's jitter
+        (:func:`algorithms.common.sampling.jitter_offset`), instead of on the slab's middle plane: no wood-grain
+        rings. Ignored for axis-aligned stacks and a given ``texel_size`` (their texels are not the pixels' rays).
     progress : callable, optional
         Called with a fraction in [0, 1] during the set-up.
 
@@ -104,6 +115,12 @@ class SlicingRenderer:
         mode: str = "view",
         precision: str = "float",
         texel_size: float | None = None,
+        shading: bool = False,
+        ambient: float = 0.1,
+        diffuse: float = 0.7,
+        specular: float = 0.2,
+        specular_power: float = 10.0,
+        jitter: bool = False,
         progress: ProgressCallback = None,
     ) -> None:
         checked_table(table)
@@ -121,8 +138,16 @@ class SlicingRenderer:
             slices = validated_count(slices, "slices")
         if texel_size is not None:
             texel_size = validated_distance(texel_size, "texel_size")
-        self.volume = validated_float_volume(volume_array)
+        for name, value in (("ambient", ambient), ("diffuse", diffuse), ("specular", specular)):
+            if not 0.0 <= float(value) <= 1.0:
+                raise ValueError(f"{name} must lie in [0, 1], got {value}")
+        if not (math.isfinite(float(specular_power)) and float(specular_power) > 0):
+            raise ValueError(f"specular_power must be positive, got {specular_power}")
+        self.volume = sampled_volume(volume_array)
         report(progress, 1.0)
+        self.shading = bool(shading)
+        self.material = np.array([ambient, diffuse, specular, specular_power], dtype=np.float64)
+        self.jitter = bool(jitter)
         self.shape = self.volume.shape
         self.table = table
         self.slice_distance = slice_distance
@@ -172,16 +197,29 @@ class SlicingRenderer:
         """The transfer table ``(n, 4)`` float32 with opacity corrected for ``polygons.path_step``."""
         return np.ascontiguousarray(self.table.corrected(polygons.path_step), dtype=np.float32)
 
-    def texture_chunks(self, layout: SliceLayout) -> Iterator[TextureChunk]:
+    def texture_chunks(self, layout: SliceLayout, camera: Camera | None = None, *, size=None, pass_index: int = 0,
+                       jitter: bool | None = None, tools: ToolSet | None = None) -> Iterator[TextureChunk]:
         """The textures of the visible slices, back to front, a chunk of consecutive slices at a time.
+
+        ``camera`` (the layout's, volume frame) places the headlight of ``shading``; with the image ``size``
+        ``(width, height)`` it also gives the pixel rays of ``jitter`` (default: the renderer's), pass
+        ``pass_index``. Without a camera neither applies.
 
         A texel holds the premultiplied RGBA of the trilinearly interpolated scalar at its centre (clamped to
         the volume: texels beyond the box, read only by bilinear filtering at the polygon's border, hold border
-        values), with the opacity corrected for the stack's ``path_step``. Chunks hold about
+        values), with the opacity corrected for the stack's ``path_step``; ``tools`` (volume frame) cut texels away
+        per texel (source 002, 2.5.1). Chunks hold about
         ``CHUNK_TEXELS`` texels, so memory stays bounded and each kernel launch has enough work for every thread.
         """
         table = self.corrected_table(layout.polygons)
         inverse_spacing = 1.0 / self.spacing
+        shading = self.shading and camera is not None
+        jitter = (self.jitter if jitter is None else jitter) and camera is not None and size is not None
+        jitter = jitter and layout.pixel_aligned
+        eye = np.asarray(camera.position if camera is not None else (0.0, 0.0, 0.0), dtype=np.float64)
+        frame = np.ascontiguousarray(camera.ray_frame(*size)) if jitter else np.zeros((5, 3))
+        parallel = bool(camera.parallel_projection) if camera is not None else True
+        packed = packed_tools(tools)
         visible = np.flatnonzero(layout.visible)
         sizes = layout.shapes[visible, 0] * layout.shapes[visible, 1]
         chunk_of = (np.cumsum(sizes) - sizes) // CHUNK_TEXELS
@@ -193,13 +231,19 @@ class SlicingRenderer:
             row_slices = np.repeat(np.arange(len(indices)), heights)
             row_indices = csr_ranks(heights)
             kernels.fill_textures(self.volume, inverse_spacing, self.box_min, self.box_max, layout.origins[indices],
-                           layout.u_steps[indices], layout.v_steps[indices], widths, starts, row_slices,
-                           row_indices, table, float(self.table.value_min), float(self.table.scale), textures)
+                                  layout.u_steps[indices], layout.v_steps[indices], widths, starts, row_slices,
+                                  row_indices, table, float(self.table.value_min), float(self.table.scale), shading,
+                                  self.material, eye, jitter, int(pass_index), frame, parallel,
+                                  layout.columns[indices, 0].astype(np.int64),
+                                  (layout.rows[indices, 1] - 1).astype(np.int64),
+                                  float(layout.polygons.slice_distance), packed, textures)
             yield TextureChunk(indices, starts, textures)
 
-    def iter_textures(self, layout: SliceLayout) -> Iterator[tuple[int, SliceTexture]]:
-        """``(slice index, texture)`` of every visible slice, back to front (see :meth:`texture_chunks`)."""
-        for chunk in self.texture_chunks(layout):
+    def iter_textures(self, layout: SliceLayout, camera: Camera | None = None, *,
+                      size=None, tools: ToolSet | None = None) -> Iterator[tuple[int, SliceTexture]]:
+        """``(slice index, texture)`` of every visible slice, back to front (see :meth:`texture_chunks`: with the
+        camera and image ``size`` the OpenGL path draws exactly the float path's shaded, jittered textures)."""
+        for chunk in self.texture_chunks(layout, camera, size=size, tools=tools):
             for m, index in enumerate(chunk.indices):
                 height, width = layout.shapes[index]
                 rgba = chunk.textures[chunk.starts[m]: chunk.starts[m] + height * width].reshape(height, width, 4)
@@ -207,8 +251,10 @@ class SlicingRenderer:
                                                rgba)
 
     # -- frames --------------------------------------------------------------------------------------------
-    def render(self, camera: Camera, width: int, height: int, *, progress: ProgressCallback = None) -> RenderResult:
-        """One frame seen by ``camera`` (volume frame) at ``width`` x ``height`` pixels.
+    def render(self, camera: Camera, width: int, height: int, *, pass_index: int = 0, tools: ToolSet | None = None,
+               progress: ProgressCallback = None) -> RenderResult:
+        """One frame seen by ``camera`` (volume frame) at ``width`` x ``height`` pixels (jitter pass
+        ``pass_index``), cut by ``tools`` (volume frame) per texel.
 
         Returns
         -------
@@ -224,7 +270,8 @@ class SlicingRenderer:
         tolerance = MERGE_TOLERANCE * float(np.linalg.norm(self.box_max - self.box_min))
         total = max(int(layout.visible.sum()), 1)
         done = 0
-        for chunk in self.texture_chunks(layout):
+        for chunk in self.texture_chunks(layout, camera, size=(int(width), int(height)), pass_index=pass_index,
+                                         tools=tools):
             indices = chunk.indices
             u_steps, v_steps = layout.u_steps[indices], layout.v_steps[indices]
             kernels.composite_slices(

@@ -56,7 +56,7 @@ from ...common.validation import (
 )
 from . import kernels
 
-__all__ = ["MarchingCubesMesh", "PARALLEL_MIN_SAMPLES", "marching_cubes"]
+__all__ = ["MarchingCubesMesh", "PARALLEL_MIN_SAMPLES", "count_triangles", "marching_cubes"]
 
 
 @dataclass(frozen=True)
@@ -80,11 +80,9 @@ class MarchingCubesMesh(TriangleMesh):
     values_name: ClassVar[str] = "Isovalue"
 
 
-def _slab_bounds(counts: np.ndarray, plane_size: int, pieces: int) -> np.ndarray:
-    """Layer boundaries splitting the fill work into ``pieces`` slabs of about equal cost."""
-    layers = counts.shape[0] - 1
-    # Vertices and triangles dominate; every layer also scans its cells and a slice of samples.
-    work = counts[:-1, 0] + counts[:-1, 1] + 2 * counts[:-1, 2] + plane_size // 4 + 1
+def _slab_bounds(work: np.ndarray, pieces: int) -> np.ndarray:
+    """Layer boundaries splitting the fill work (``work[k]`` per layer) into ``pieces`` slabs of about equal cost."""
+    layers = work.shape[0]
     cumulative = np.cumsum(work)
     targets = cumulative[-1] * np.arange(1, pieces) / pieces
     inner = np.minimum(np.searchsorted(cumulative, targets) + 1, layers)
@@ -108,9 +106,9 @@ def _inside_threshold(dtype: np.dtype, iso: float):
     return np.float64(iso)
 
 
-#: Below this many samples the kernels run on one thread: the work takes a few milliseconds, less than waking
-#: a second thread can cost when the other core is busy (measured: 8 ms per parallel region under load).
-PARALLEL_MIN_SAMPLES = 2_000_000
+#: Below this many samples the kernels run on one thread. Waking the second thread costs a few microseconds on a
+#: quiet machine (measured: 4 us per parallel region), so every volume that is worth meshing is threaded.
+PARALLEL_MIN_SAMPLES = 4096
 
 
 @contextmanager
@@ -124,45 +122,116 @@ def _numba_threads(count: int):
         numba.set_num_threads(previous)
 
 
-def _extract(array, iso, spacing, origin, with_normals, inside, spans, progress):
+def _empty(with_normals: bool):
+    return (np.empty((0, 3), np.float32), np.empty((0, 3), np.float32) if with_normals else None,
+            np.empty((0, 3), np.int64))
+
+
+@dataclass
+class _Counts:
+    """What the counting pass found: spans, cut edges per edge row, triangles per row of cells."""
+
+    spans: np.ndarray  # (nz - 1, ny - 1, 2)
+    edges: np.ndarray  # (nz, ny, 3)
+    triangles: np.ndarray  # (nz - 1, ny - 1)
+
+    @property
+    def triangle_total(self) -> int:
+        return int(self.triangles.sum())
+
+
+def _count(array, threshold, progress, share: float = 0.3) -> _Counts:
+    """The counting pass over every layer, in rounds between which progress is reported."""
+    nz, ny, nx = array.shape
+    rounds = int(np.clip(array.size // 8_000_000, 1, 8))
+    counts = _Counts(np.empty((nz - 1, ny - 1, 2), dtype=np.int64), np.zeros((nz, ny, 3), dtype=np.int64),
+                     np.empty((nz - 1, ny - 1), dtype=np.int64))
+    flags = np.zeros(nz - 1, dtype=np.bool_)
+    chunks = np.linspace(0, nz - 1, rounds + 1).astype(np.int64)
+    parts = numba.get_num_threads()
+    for n in range(rounds):
+        kernels.count_layers(array, threshold, chunks[n], chunks[n + 1], parts, kernels.PAIR_CASE,
+                             kernels.TRIANGLE_COUNT, counts.spans, counts.edges, counts.triangles, flags)
+        report(progress, share * (n + 1) / rounds)
+    if flags.any():
+        raise ValueError("the volume contains NaN values; marching cubes needs a value at every sample")
+    return counts
+
+
+def _extract(array, iso, spacing, origin, with_normals, progress):
     """One isosurface of ``array``: points, normals (or None), triangles."""
     nz, ny, nx = array.shape
     threshold = _inside_threshold(array.dtype, iso)
     if threshold is None:
         report(progress, 1.0)
-        return np.empty((0, 3), np.float32), np.empty((0, 3), np.float32) if with_normals else None, np.empty(
-            (0, 3), np.int64)
+        return _empty(with_normals)
+    counts = _count(array, threshold, progress)
+    vertex_first = np.cumsum(counts.edges.ravel()).reshape(counts.edges.shape)
+    vertex_total = int(vertex_first[-1, -1, -1]) if vertex_first.size else 0
+    vertex_first -= counts.edges  # exclusive prefix sums
+    triangle_first = np.cumsum(counts.triangles.ravel()).reshape(counts.triangles.shape)
+    triangle_total = int(triangle_first[-1, -1]) if triangle_first.size else 0
+    if triangle_total == 0:
+        report(progress, 1.0)
+        return _empty(with_normals)
+    triangle_first -= counts.triangles
+    points = np.empty((vertex_total, 3), dtype=np.float32)
+    normals = np.empty((vertex_total if with_normals else 0, 3), dtype=np.float32)
+    on_sample = np.empty(vertex_total, dtype=np.int64)
+    triangles = np.empty((triangle_total, 3), dtype=np.int64)
+    # Work per layer: the cells scanned (span lengths) and what is written (vertices, triangles).
+    lengths = (counts.spans[:, :, 1] - counts.spans[:, :, 0] + 1).clip(min=0).sum(axis=1)
+    work = lengths + 4 * counts.edges[:-1].sum(axis=(1, 2)) + 2 * counts.triangles.sum(axis=1) + 1
     threads = numba.get_num_threads()
-    rounds = int(np.clip(array.size // 8_000_000, 1, 8))  # calls between which progress is reported
-    counts = np.zeros((nz, 4), dtype=np.int64)
-    chunks = np.linspace(0, nz - 1, rounds + 1).astype(np.int64)
+    rounds = int(np.clip(array.size // 8_000_000, 1, 8))
+    bounds = _slab_bounds(work, threads * rounds)
     for n in range(rounds):
-        kernels.classify_layers(array, threshold, chunks[n], chunks[n + 1], kernels.PAIR_CASE, kernels.TRIANGLE_COUNT,
-                                kernels.POPCOUNT4, inside, spans, counts)
-        report(progress, 0.3 * (n + 1) / rounds)
-    if counts[:, 3].any():
-        raise ValueError("the volume contains NaN values; marching cubes needs a value at every sample")
-
-    planar_counts = np.ascontiguousarray(counts[:, 0])
-    vertex_first = np.concatenate(([0], np.cumsum(planar_counts + counts[:, 1])))
-    triangle_first = np.concatenate(([0], np.cumsum(counts[:, 2])))
-    vertex_edges = np.empty(vertex_first[-1], dtype=np.int64)
-    triangles = np.empty((triangle_first[-1], 3), dtype=np.int64)
-    if triangles.shape[0]:
-        bounds = _slab_bounds(counts, ny * nx, threads * rounds)
-        for n in range(rounds):
-            kernels.fill_slabs(inside, bounds[n * threads:(n + 1) * threads + 1], vertex_first, planar_counts,
-                               triangle_first, spans, kernels.PAIR_CASE, kernels.TRIANGLES, kernels.TRIANGLE_COUNT,
-                               kernels.EDGE_SLOTS, vertex_edges, triangles)
-            report(progress, 0.3 + 0.5 * (n + 1) / rounds)
-    points = np.empty((vertex_edges.shape[0], 3), dtype=np.float32)
-    normals = np.empty((vertex_edges.shape[0] if with_normals else 0, 3), dtype=np.float32)
-    on_sample = np.empty(vertex_edges.shape[0], dtype=np.int64)
-    kernels.vertex_attributes(array, iso, vertex_edges, spacing, origin, points, normals, on_sample)
-    report(progress, 0.95)
+        kernels.fill_layers(array, threshold, iso, bounds[n * threads:(n + 1) * threads + 1], counts.spans,
+                            vertex_first, triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES,
+                            kernels.TRIANGLE_COUNT, spacing, origin, points, normals, on_sample, triangles)
+        report(progress, 0.3 + 0.65 * (n + 1) / rounds)
+    del counts, vertex_first, triangle_first
     n_points, n_triangles = kernels.merge_on_samples(points, normals, on_sample, triangles)
     report(progress, 1.0)
-    return points[:n_points], normals[:n_points] if with_normals else None, triangles[:n_triangles]
+    return _trimmed(points, n_points), _trimmed(normals, n_points) if with_normals else None, _trimmed(
+        triangles, n_triangles)
+
+
+def _trimmed(array: np.ndarray, rows: int) -> np.ndarray:
+    """The first ``rows`` rows of ``array``; a compact copy when merging freed many rows, else a view."""
+    if rows == array.shape[0]:
+        return array
+    if rows < 0.9 * array.shape[0]:
+        return array[:rows].copy()
+    return array[:rows]
+
+
+def count_triangles(volume, level, *, stride: int = 1, progress: ProgressCallback = None) -> int:
+    """How many triangles :func:`marching_cubes` makes for ``level``, from its counting pass alone.
+
+    Exact before vertices on samples are merged (which only drops triangles collapsed to a line or a point), so an
+    upper bound of the mesh's size found at a fraction of the cost and with no memory beyond a few bytes per row
+    of samples. Surfaces by other case tables (``vtkMarchingCubes``, ``vtkFlyingEdges3D``) differ only in cells
+    with an ambiguous face; this is a close estimate of their size too.
+
+    Parameters and errors as :func:`marching_cubes` (one isovalue).
+    """
+    array = validated_numeric_volume(volume)
+    levels = validated_levels(level)
+    if levels.size != 1:
+        raise ValueError("count_triangles takes one isovalue")
+    stride = validated_count(stride, "stride", note=" (1 for full resolution, 2 or 4 for a preview)")
+    if stride > 1:
+        array = np.ascontiguousarray(array[::stride, ::stride, ::stride])
+    validated_shape(array.shape, min_size=2, note=f" after stride {stride}" if stride > 1 else "")
+    threshold = _inside_threshold(array.dtype, float(levels[0]))
+    if threshold is None:
+        report(progress, 1.0)
+        return 0
+    with _numba_threads(numba.get_num_threads() if array.size >= PARALLEL_MIN_SAMPLES else 1):
+        total = _count(array, threshold, progress, share=1.0).triangle_total
+    report(progress, 1.0)
+    return total
 
 
 def marching_cubes(
@@ -208,8 +277,8 @@ def marching_cubes(
     Raises
     ------
     ValueError
-        If the volume is not 3D, has a non-real dtype, has fewer than 2 samples on an axis (after ``stride``) or
-        more than 65536 along i or j, or holds NaN; if no isovalue is given or they are not finite and distinct; if
+        If the volume is not 3D, has a non-real dtype, has fewer than 2 samples on an axis (after ``stride``), or
+        holds NaN; if no isovalue is given or they are not finite and distinct; if
         spacing or origin are not three finite numbers (spacing positive); if ``stride`` is not a positive integer.
 
     Notes
@@ -250,16 +319,10 @@ def marching_cubes(
         array = np.ascontiguousarray(array[::stride, ::stride, ::stride])
         spacing = spacing * stride
     validated_shape(array.shape, min_size=2, note=f" after stride {stride}" if stride > 1 else "")
-    if max(array.shape[1:]) > 65536:
-        raise ValueError(f"marching cubes handles at most 65536 samples along i and j, got (ny, nx) = "
-                         f"{array.shape[1:]}")
-
-    inside = np.empty(array.shape, dtype=np.uint8)  # work arrays shared by all isovalues
-    spans = np.empty((array.shape[0] - 1, array.shape[1] - 1, 2), dtype=np.int64)
     parts = []
     with _numba_threads(numba.get_num_threads() if array.size >= PARALLEL_MIN_SAMPLES else 1):
         for n, iso in enumerate(levels):
-            parts.append(_extract(array, iso, spacing, origin, normals, inside, spans,
+            parts.append(_extract(array, float(iso), spacing, origin, normals,
                                   scaled(progress, n / levels.size, (n + 1) / levels.size)))
     sizes = [part[0].shape[0] for part in parts]
     values = np.repeat(levels.astype(np.float32), sizes)

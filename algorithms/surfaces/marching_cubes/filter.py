@@ -6,10 +6,10 @@ from __future__ import annotations
 import weakref
 
 import numpy as np
-from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.util.numpy_support import get_vtk_array_type, numpy_to_vtk
 from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
-from vtkmodules.vtkCommonCore import vtkCommand
-from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
+from vtkmodules.vtkCommonCore import vtkCommand, vtkPoints
+from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkImageData, vtkPolyData
 from vtkmodules.vtkCommonMisc import vtkContourValues
 
 from ...common.progress import OperationCancelled
@@ -162,8 +162,33 @@ class MarchingCubesFilter(VTKPythonAlgorithmBase):
                 values=mesh.values,
             )
         name = image.GetPointData().GetScalars().GetName() or "Isovalue"
-        result = mesh.to_polydata(scalars_name=name)
-        points = vtk_to_numpy(result.GetPoints().GetData())
-        points += np.asarray(image.GetOrigin(), dtype=points.dtype)
-        output.ShallowCopy(result)
+        mesh.points[...] += np.asarray(image.GetOrigin(), dtype=mesh.points.dtype)
+        output.ShallowCopy(_shared_polydata(mesh, name))
         return 1
+
+
+def _shared(array: np.ndarray, name: str | None = None, array_type: int | None = None):
+    """A VTK array on the memory of a contiguous NumPy array (kept alive by the VTK array)."""
+    vtk_array = numpy_to_vtk(np.ascontiguousarray(array), deep=False, array_type=array_type)
+    if name:
+        vtk_array.SetName(name)
+    return vtk_array
+
+
+def _shared_polydata(mesh: MarchingCubesMesh, scalars_name: str) -> vtkPolyData:
+    """The mesh as ``vtkPolyData`` without copying its points, triangles, normals or values (a large mesh is not
+    held twice): ``Points``, triangles as polys, the isovalues as point scalars named ``scalars_name``, and
+    ``Normals`` when computed."""
+    polydata = vtkPolyData()
+    points = vtkPoints()
+    points.SetData(_shared(mesh.points.reshape(-1, 3)))
+    polydata.SetPoints(points)
+    id_type = get_vtk_array_type(np.int64)
+    cells = vtkCellArray()
+    offsets = np.arange(0, 3 * mesh.triangles.shape[0] + 1, 3, dtype=np.int64)
+    cells.SetData(_shared(offsets, array_type=id_type), _shared(mesh.triangles.reshape(-1), array_type=id_type))
+    polydata.SetPolys(cells)
+    polydata.GetPointData().SetScalars(_shared(mesh.values, scalars_name))
+    if mesh.normals is not None:
+        polydata.GetPointData().SetNormals(_shared(mesh.normals, "Normals"))
+    return polydata

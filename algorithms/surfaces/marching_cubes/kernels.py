@@ -1,16 +1,24 @@
 """numba kernels of marching cubes, and Bourke's tables in the form they use (see :mod:`.core` for the method).
 
-Implementation (parallel over k slices or over vertices; no Python loop per cell):
+Implementation: two passes over the rows of cells, both parallel over layers of cells (slabs of consecutive
+``k``); no Python loop per cell, no inside mask of the whole volume, no hashing of edges.
 
-1. :func:`classify_layers`: classify every sample (an inside mask), note per row of cells the span of columns
-   where anything happens, and count the cut edges of each slice and the triangles of each layer of cells.
-2. Prefix sums of the counts (in :mod:`.core`) give every slice its first vertex id and every layer its first
-   triangle.
-3. :func:`fill_slabs`: slabs of layers, balanced by work, run independently: each numbers the cut edges of its
-   slices in a fixed order into small per-slice id planes (so each cut edge gets exactly one vertex, without
-   hashing), records each vertex's edge, and writes its layers' triangles by looking the ids up.
-4. :func:`vertex_attributes` computes positions (and normals) per vertex from its edge;
-   :func:`merge_on_samples` merges vertices that fall on the same sample.
+1. :func:`count_layers`: classify the samples of each row of cells ``(j, k)`` against the isovalue, note the span
+   of columns where anything happens, and count the triangles of the row and the cut edges of the *edge rows* it
+   owns. An edge row is the set of x, y or z edges that start on one row of samples ``(j, k)``; each edge row is
+   owned by exactly one row of cells (:func:`_owned`).
+2. Prefix sums of the counts (in :mod:`.core`) give every edge row its first vertex id and every row of cells its
+   first triangle: the cut edges of an edge row are numbered in increasing ``i`` from there. So every cell can
+   name the vertices of its edges from eight running counters while it walks along ``i``, and the two rows of
+   cells sharing an edge row number it alike without talking to each other (the idea of flying edges, Schroeder,
+   Maynard and Geveci 2015).
+3. :func:`fill_layers`: walk the same spans again, write each row of cells' triangles, and place the vertices of
+   the edge rows it owns (position, and the normal from central differences when asked) while the samples are in
+   cache. A vertex that falls exactly on a sample is flagged for :func:`merge_on_samples`.
+
+Work memory besides the output: the spans and the per-row counts (a few bytes per row of samples), and a row of
+column codes per thread. The kernels take a block of samples and its place in the volume (``origin``) only, so a
+block of a larger volume can be meshed on its own.
 """
 
 from __future__ import annotations
@@ -19,6 +27,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import tables
+
 
 def _column_pair_cases() -> np.ndarray:
     """Bourke case of a cell from the inside bits of its two corner columns, indexed ``low | high << 4``.
@@ -36,17 +45,24 @@ def _column_pair_cases() -> np.ndarray:
 
 
 def _edge_slots() -> np.ndarray:
-    """Where the kernels keep the vertex id of each cell edge, shape (12, 4): ``(level, axis, dj, di)``.
+    """Where a cell finds the vertex id of each of its edges in its 12-slot id list, shape (12,).
 
-    For the cell ``(i, j)`` of the layer between slices k and k + 1, an x or y edge (axis 0 or 1) lies in slice
-    k (level 0) or k + 1 (level 1) at row ``j + dj``, column ``i + di``; z edges (level 2, axis 2) join the two.
+    A cell keeps the ids of the edges it touches as ``x[0..3]`` (its x edges on sample rows ``(j, k)``,
+    ``(j + 1, k)``, ``(j, k + 1)``, ``(j + 1, k + 1)``), ``y[s][c]`` (y edges in slice ``k + s`` at column
+    ``i + c``) and ``z[r][c]`` (z edges on sample row ``j + r`` at column ``i + c``), flattened as
+    ``x0..x3, y00, y01, y10, y11, z00, z01, z10, z11``.
     """
-    slots = np.empty((12, 4), dtype=np.int64)
+    slots = np.empty(12, dtype=np.int64)
     for edge, (a, b) in enumerate(tables.EDGE_CORNERS):
         start = np.minimum(tables.CORNER_OFFSETS[a], tables.CORNER_OFFSETS[b])
         axis = int(np.flatnonzero(tables.CORNER_OFFSETS[a] != tables.CORNER_OFFSETS[b])[0])
-        level = 2 if axis == 2 else int(start[2])
-        slots[edge] = (level, axis, start[1], start[0])
+        di, dj, dk = (int(v) for v in start)
+        if axis == 0:
+            slots[edge] = dj + 2 * dk
+        elif axis == 1:
+            slots[edge] = 4 + 2 * dk + di
+        else:
+            slots[edge] = 8 + 2 * dj + di
     return slots
 
 
@@ -58,320 +74,290 @@ def _triangle_counts() -> np.ndarray:
 
 #: Bourke case of a cell from its two corner columns' inside bits, ``PAIR_CASE[low | high << 4]``.
 PAIR_CASE = _column_pair_cases()
-#: Where the kernels keep each cell edge's vertex id: ``(level, axis, dj, di)`` per edge.
+#: Slot of each cell edge in a cell's 12 vertex ids (see :func:`_edge_slots`).
 EDGE_SLOTS = _edge_slots()
-#: Bourke's triangle table as int64 edge numbers (padded with -1).
-TRIANGLES = tables.TRIANGLE_TABLE.astype(np.int64)
+#: Bourke's triangle table as the cells' id slots of the triangles' vertices (padded with -1).
+TRIANGLES = np.where(tables.TRIANGLE_TABLE >= 0, EDGE_SLOTS[np.maximum(tables.TRIANGLE_TABLE, 0)], -1).astype(np.int64)
 #: Triangles of each case.
 TRIANGLE_COUNT = _triangle_counts()
-#: Set bits of each 4-bit number.
-POPCOUNT4 = np.array([bin(v).count("1") for v in range(16)], dtype=np.int64)
 
-
-# ``threshold`` is the isovalue in the volume's own number type such that ``value >= threshold`` exactly when ``value >=
-# iso`` (see :func:`algorithms.surfaces.marching_cubes.core._inside_threshold`); comparing in the native type lets LLVM
-# vectorise the scans.
-# ``inside[k, j, i]`` is 1 where the sample is inside, 0 elsewhere: after the first pass only the vertex
-# positions and normals read the volume, so the other kernels are compiled once, whatever its dtype.
+# ``threshold`` is the isovalue in the volume's own number type such that ``value >= threshold`` exactly when
+# ``value >= iso`` (see :func:`algorithms.surfaces.marching_cubes.core._inside_threshold`); comparing in the native
+# type lets LLVM vectorise the scans.
 # ``spans[k, j]`` is the inclusive range of sample columns ``i`` where anything happens in the row of cells
 # ``(j, k)``: a column whose four samples are not all on one side, or that differs from its neighbour. Every cut
-# edge of the four sample rows of that row of cells, and every cell with triangles, lies inside the span.
+# edge of the four sample rows of that row of cells, and every cell with triangles, lies inside the span; an empty
+# row has ``low > high``.
+# ``edge_counts[k, j, a]`` counts the cut edges along axis ``a`` (0, 1, 2 for x, y, z) that start on sample row
+# ``(j, k)``; ``vertex_first`` has the same layout and holds the id of the first of them.
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _owned(j, k, ny, nz):
+    """Which edge rows the row of cells ``(j, k)`` owns besides its own x, y and z rows at ``(j, k)``:
+    the sample row ``j + 1`` (last row of cells), the slice ``k + 1`` (last layer), or both."""
+    return j == ny - 2, k == nz - 2
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _column_codes(volume, threshold, k, j, codes):
+    """Column codes of the row of cells ``(j, k)`` into ``codes`` (bit ``dj + 2 dk``: sample ``(j + dj, k + dk)``
+    inside); returns the lowest and highest code and whether the sample row ``(j, k)`` holds a NaN."""
+    nx = volume.shape[2]
+    a0 = volume[k, j]
+    a1 = volume[k, j + 1]
+    b0 = volume[k + 1, j]
+    b1 = volume[k + 1, j + 1]
+    lowest = 15
+    highest = 0
+    undefined = False
+    for i in range(nx):
+        code = (a0[i] >= threshold) + 2 * (a1[i] >= threshold) + 4 * (b0[i] >= threshold) + 8 * (b1[i] >= threshold)
+        codes[i] = code
+        lowest = min(lowest, code)
+        highest = max(highest, code)
+        undefined |= a0[i] != a0[i]
+    return lowest, highest, undefined
+
+
+@njit(cache=True, nogil=True)
+def _row_has_nan(row):
+    undefined = False
+    for i in range(row.shape[0]):
+        undefined |= row[i] != row[i]
+    return undefined
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def classify_layers(volume, threshold, start, stop, pair_case, triangle_count, popcount, inside, spans, counts):
-    """Inside mask, row spans and per-slice counts of the cell layers ``start..stop-1``.
+def count_layers(volume, threshold, start, stop, parts, pair_case, triangle_count, spans, edge_counts,
+                 triangle_counts, flags):
+    """Spans, owned cut-edge counts and triangle counts of the rows of cells of layers ``start..stop-1``.
 
-    ``counts[k]``: cut x and y edges in slice k, cut z edges between slices k and k + 1, triangles of layer k,
-    and whether a sample of slice k is NaN. The last layer also fills ``inside[nz - 1]`` and ``counts[nz - 1]``.
+    The layers are dealt out to ``parts`` workers in turn (layer ``start + p``, ``start + p + parts``, ...), so
+    workers get about the same mix of empty and busy layers whatever the object's shape. ``flags[k]`` is set when a
+    sample of slice k is NaN (the last layer also checks the last slice). ``edge_counts`` must start at zero;
+    ``triangle_counts`` has shape ``(nz - 1, ny - 1)``.
     """
     nz, ny, nx = volume.shape
-    for k in prange(start, stop):
-        top = k == nz - 2  # the last layer also counts the x and y edges of the last slice
-        planar = 0
-        vertical = 0
-        triangles = 0
-        planar_top = 0
-        undefined = False
+    for part in prange(parts):
         codes = np.empty(nx, dtype=np.uint8)
-        for j in range(ny - 1):
-            last_row = j == ny - 2  # the last row of cells also owns the last row of samples
-            rows = 3 if last_row else 1  # sample rows this row of cells counts (bit 0: j, bit 1: j + 1)
-            rows_top = rows if top else 0
-            a0 = volume[k, j]
-            a1 = volume[k, j + 1]
-            b0 = volume[k + 1, j]
-            b1 = volume[k + 1, j + 1]
-            mask = inside[k, j]
-            # Column codes: bit dj + 2 dk is set when sample (j + dj, k + dk) of the column is inside.
-            lowest = 15
-            highest = 0
-            for i in range(nx):
-                code = (a0[i] >= threshold) + 2 * (a1[i] >= threshold) + 4 * (b0[i] >= threshold) + 8 * (
-                    b1[i] >= threshold
-                )
-                codes[i] = code
-                mask[i] = code & 1
-                lowest = min(lowest, code)
-                highest = max(highest, code)
-                undefined |= a0[i] != a0[i]
-            if last_row or top:
-                for i in range(nx):
-                    if last_row:
-                        inside[k, j + 1, i] = (codes[i] >> 1) & 1
-                    if top:
-                        inside[k + 1, j, i] = (codes[i] >> 2) & 1
-                    if last_row and top:
-                        inside[k + 1, j + 1, i] = codes[i] >> 3
-            if lowest == highest and (lowest == 0 or lowest == 15):  # all samples of the row on one side
-                spans[k, j, 0] = nx
-                spans[k, j, 1] = -1
-                continue
-            # The span: from the first to the last column that is mixed or differs from its neighbour.
-            low = 0
-            while (codes[low] == 0 or codes[low] == 15) and codes[low] == codes[low + 1]:
-                low += 1
-            high = nx - 1
-            while (codes[high] == 0 or codes[high] == 15) and codes[high] == codes[high - 1]:
-                high -= 1
-            spans[k, j, 0] = low
-            spans[k, j, 1] = high
-            previous = np.int64(codes[low])
-            for i in range(low, high + 1):
-                code = np.int64(codes[i])
-                if code == previous and (code == 0 or code == 15) and i > low:
-                    continue  # a column and a cell with all samples on one side
-                across_y = code ^ (code >> 1)  # bit 0: y edge in slice k, bit 2: y edge in slice k + 1
-                planar += across_y & 1
-                planar_top += (across_y >> 2) & np.int64(top)
-                vertical += popcount[(code ^ (code >> 2)) & rows]  # z edges of sample rows j (and j + 1)
-                if i > low:
-                    across_x = previous ^ code  # x edges: bits 0, 1 in slice k, bits 2, 3 in slice k + 1
-                    planar += popcount[across_x & rows]
-                    planar_top += popcount[(across_x >> 2) & rows_top]
-                    triangles += triangle_count[pair_case[previous | (code << 4)]]
-                previous = code
-        last_row_samples = volume[k, ny - 1]
-        for i in range(nx):
-            undefined |= last_row_samples[i] != last_row_samples[i]
-        counts[k, 0] = planar
-        counts[k, 1] = vertical
-        counts[k, 2] = triangles
-        counts[k, 3] = undefined
-        if top:
-            for j in range(ny):
-                row = volume[k + 1, j]
-                for i in range(nx):
-                    undefined |= row[i] != row[i]
-            counts[k + 1, 0] = planar_top
-            counts[k + 1, 1] = 0
-            counts[k + 1, 2] = 0
-            counts[k + 1, 3] = undefined
+        for k in range(start + part, stop, parts):
+            _count_layer(volume, threshold, k, pair_case, triangle_count, spans, edge_counts, triangle_counts,
+                         flags, codes)
 
 
 @njit(cache=True, nogil=True)
-def _edge_code(k, j, i, axis):
-    """An edge as one int64: its lower sample (i, j, k) and axis (0, 1, 2 for x, y, z) packed in bit fields.
-
-    Bits 0-1 axis, 2-17 i, 18-33 j, 34 and up k: shifts instead of divisions to unpack (``nx, ny <= 65536``).
-    """
-    return (np.int64(k) << 34) | (np.int64(j) << 18) | (np.int64(i) << 2) | axis
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _row_span(spans, layer, j):
-    """``(low, high)``: the columns of sample row ``j`` of a layer's lower (or, for the last layer, upper) slice
-    where edges can be cut (the span of the row of cells below it, or above it for the last row)."""
-    cells = min(j, spans.shape[1] - 1)
-    return spans[layer, cells, 0], spans[layer, cells, 1]
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _number_across(row, other, low, high, ids, vertex, code, write, vertex_edges):
-    """Number the edges from ``row[i]`` to ``other[i]`` (``i = low .. high``) that are cut, from ``vertex`` on.
-
-    The ids go to ``ids[i]``; with ``write``, edge ``i`` is recorded as ``code | (i << 2)`` (``code``: the
-    :func:`_edge_code` of the row's first edge). Returns the next free id.
-    """
-    for i in range(low, high + 1):
-        if row[i] != other[i]:
-            ids[i] = vertex
-            if write:
-                vertex_edges[vertex] = code | (i << 2)
-            vertex += 1
-    return vertex
-
-
-@njit(cache=True, nogil=True)
-def _slice_vertices(inside, k, first, spans, x_ids, y_ids, write, vertex_edges):
-    """Number the cut x and y edges of slice k from ``first`` (row by row: x edges, then y edges).
-
-    The ids go to ``x_ids[j, i]`` and ``y_ids[j, i]`` (at the edge's lower sample). With ``write``, each
-    vertex's edge is recorded in ``vertex_edges[id]`` (see :func:`_edge_code`). Returns the next free id.
-    """
-    nz, ny, nx = inside.shape
-    span_layer = min(k, nz - 2)
-    vertex = first
-    for j in range(ny):
-        low, high = _row_span(spans, span_layer, j)
-        row_code = _edge_code(k, j, 0, 0)
-        row = inside[k, j]
-        for i in range(low, high):
-            if row[i] != row[i + 1]:
-                x_ids[j, i] = vertex
-                if write:
-                    vertex_edges[vertex] = row_code | (i << 2)
-                vertex += 1
-        if j + 1 < ny:
-            vertex = _number_across(row, inside[k, j + 1], low, high, y_ids[j], vertex, row_code | 1, write,
-                                    vertex_edges)
-    return vertex
-
-
-@njit(cache=True, nogil=True)
-def _vertical_vertices(inside, k, first, spans, ids, vertex_edges):
-    """Number the cut z edges between slices k and k + 1 from ``first`` and record their edges."""
-    nz, ny, nx = inside.shape
-    vertex = first
-    for j in range(ny):
-        low, high = _row_span(spans, k, j)
-        vertex = _number_across(inside[k, j], inside[k + 1, j], low, high, ids[j], vertex, _edge_code(k, j, 0, 2),
-                                True, vertex_edges)
-
-
-@njit(cache=True, nogil=True)
-def _layer_triangles(inside, spans, k, first, ids, edge_offsets, pair_case, triangle_table, triangle_count,
-                     triangles):
-    """Write the triangles of layer k from ``first``.
-
-    ``ids`` holds the id planes of the layer flat; the vertex of edge ``e`` of cell (i, j) is
-    ``ids[edge_offsets[e] + j * nx + i]``.
-    """
-    nz, ny, nx = inside.shape
-    row = first
+def _count_layer(volume, threshold, k, pair_case, triangle_count, spans, edge_counts, triangle_counts, flags,
+                 codes):
+    """:func:`count_layers` for one layer of cells."""
+    nz, ny, nx = volume.shape
+    undefined = False
     for j in range(ny - 1):
-        low = spans[k, j, 0]
-        high = spans[k, j, 1]
-        if low >= high:
+        last_row, top = _owned(j, k, ny, nz)
+        lowest, highest, nan_row = _column_codes(volume, threshold, k, j, codes)
+        undefined |= nan_row
+        if lowest == highest and (lowest == 0 or lowest == 15):  # all samples of the row on one side
+            spans[k, j, 0] = nx
+            spans[k, j, 1] = -1
+            triangle_counts[k, j] = 0
             continue
-        a0 = inside[k, j]
-        a1 = inside[k, j + 1]
-        b0 = inside[k + 1, j]
-        b1 = inside[k + 1, j + 1]
-        previous = np.int64(a0[low]) | (np.int64(a1[low]) << 1) | (np.int64(b0[low]) << 2) | (np.int64(b1[low]) << 3)
-        for i in range(low, high):
-            code = (np.int64(a0[i + 1]) | (np.int64(a1[i + 1]) << 1) | (np.int64(b0[i + 1]) << 2)
-                    | (np.int64(b1[i + 1]) << 3))
-            case = pair_case[previous | (code << 4)]
+        # The span: from the first to the last column that is mixed or differs from its neighbour.
+        low = 0
+        while (codes[low] == 0 or codes[low] == 15) and codes[low] == codes[low + 1]:
+            low += 1
+        high = nx - 1
+        while (codes[high] == 0 or codes[high] == 15) and codes[high] == codes[high - 1]:
+            high -= 1
+        spans[k, j, 0] = low
+        spans[k, j, 1] = high
+        x0 = x1 = x2 = x3 = y0 = y1 = z0 = z1 = triangles = 0
+        previous = np.int64(codes[low])
+        for i in range(low, high + 1):
+            code = np.int64(codes[i])
+            if i > low:
+                if code == previous and (code == 0 or code == 15):
+                    continue  # a uniform column next to an equal one: nothing is cut
+                across = previous ^ code  # x edges of the four sample rows
+                x0 += across & 1
+                x1 += (across >> 1) & 1
+                x2 += (across >> 2) & 1
+                x3 += (across >> 3) & 1
+                triangles += triangle_count[pair_case[previous | (code << 4)]]
+            y0 += (code ^ (code >> 1)) & 1  # y edge of slice k
+            y1 += ((code >> 2) ^ (code >> 3)) & 1  # y edge of slice k + 1
+            z0 += (code ^ (code >> 2)) & 1  # z edge of sample row j
+            z1 += ((code >> 1) ^ (code >> 3)) & 1  # z edge of sample row j + 1
             previous = code
-            cell = j * nx + i
-            for t in range(triangle_count[case]):
-                triangles[row, 0] = ids[edge_offsets[triangle_table[case, 3 * t]] + cell]
-                triangles[row, 1] = ids[edge_offsets[triangle_table[case, 3 * t + 1]] + cell]
-                triangles[row, 2] = ids[edge_offsets[triangle_table[case, 3 * t + 2]] + cell]
-                row += 1
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def fill_slabs(inside, bounds, vertex_first, planar_counts, triangle_first, spans, pair_case, triangle_table,
-                triangle_count, edge_slots, vertex_edges, triangles):
-    """Number the vertices and write the triangles of the slabs of layers ``bounds[s]..bounds[s+1]-1``.
-
-    One slab per iteration. Slice k's x/y vertices are recorded by the slab holding layer k (the last slice by
-    the last slab); a slab also numbers the x/y edges of the slice above its last layer, to use their ids.
-    """
-    nz, ny, nx = inside.shape
-    plane = ny * nx
-    for slab in prange(bounds.shape[0] - 1):
-        first_layer = bounds[slab]
-        stop_layer = bounds[slab + 1]
-        if first_layer >= stop_layer:
-            continue
-        # Five id planes: the x and y edges of slices of even and odd k (plane 2 * parity + axis), the z edges.
-        ids = np.empty(5 * plane, dtype=np.int64)
-        edge_offsets = np.empty(12, dtype=np.int64)
-        parity = first_layer & 1
-        _slice_vertices(inside, first_layer, vertex_first[first_layer], spans,
-                        ids[2 * parity * plane:(2 * parity + 1) * plane].reshape((ny, nx)),
-                        ids[(2 * parity + 1) * plane:(2 * parity + 2) * plane].reshape((ny, nx)), True, vertex_edges)
-        for k in range(first_layer, stop_layer):
-            _vertical_vertices(inside, k, vertex_first[k] + planar_counts[k], spans, ids[4 * plane:].reshape((ny, nx)),
-                               vertex_edges)
-            lower = k & 1
-            upper = 1 - lower
-            _slice_vertices(inside, k + 1, vertex_first[k + 1], spans,
-                            ids[2 * upper * plane:(2 * upper + 1) * plane].reshape((ny, nx)),
-                            ids[(2 * upper + 1) * plane:(2 * upper + 2) * plane].reshape((ny, nx)),
-                            k + 1 < stop_layer or k + 1 == nz - 1, vertex_edges)
-            for edge in range(12):
-                level, axis, dj, di = edge_slots[edge, 0], edge_slots[edge, 1], edge_slots[edge, 2], edge_slots[edge, 3]
-                index = 4 if level == 2 else 2 * (lower if level == 0 else upper) + axis
-                edge_offsets[edge] = index * plane + dj * nx + di
-            _layer_triangles(inside, spans, k, triangle_first[k], ids, edge_offsets, pair_case, triangle_table,
-                             triangle_count, triangles)
+        triangle_counts[k, j] = triangles
+        edge_counts[k, j, 0] = x0
+        edge_counts[k, j, 1] = y0
+        edge_counts[k, j, 2] = z0
+        if last_row:
+            edge_counts[k, j + 1, 0] = x1
+            edge_counts[k, j + 1, 2] = z1
+        if top:
+            edge_counts[k + 1, j, 0] = x2
+            edge_counts[k + 1, j, 1] = y1
+            if last_row:
+                edge_counts[k + 1, j + 1, 0] = x3
+    undefined |= _row_has_nan(volume[k, ny - 1])
+    if k == nz - 2:
+        for j in range(ny):
+            undefined |= _row_has_nan(volume[k + 1, j])
+    flags[k] = undefined
 
 
 @njit(cache=True, nogil=True)
-def _edge_ends(code):
-    """Sample indices ``(k, j, i)`` of both ends of the edge with this :func:`_edge_code`, and its axis."""
-    axis = code & 3
-    i = (code >> 2) & 0xFFFF
-    j = (code >> 18) & 0xFFFF
-    k = code >> 34
-    return k, j, i, k + (axis == 2), j + (axis == 1), i + (axis == 0), axis
-
-
-@njit(cache=True, nogil=True)
-def _central_difference(volume, k, j, i, axis, axis_spacing):
-    """Derivative along ``axis`` at sample (i, j, k) per mm (``axis_spacing`` mm between samples): central,
-    one-sided at the volume border."""
+def _gradient(volume, k, j, i, spacing):
+    """Central-difference gradient at sample (i, j, k) per mm (one-sided at the border), as (gx, gy, gz)."""
     nz, ny, nx = volume.shape
-    if axis == 0:
-        low, high = max(i - 1, 0), min(i + 1, nx - 1)
-        a, b = volume[k, j, low], volume[k, j, high]
-    elif axis == 1:
-        low, high = max(j - 1, 0), min(j + 1, ny - 1)
-        a, b = volume[k, low, i], volume[k, high, i]
+    low, high = max(i - 1, 0), min(i + 1, nx - 1)
+    gx = (np.float64(volume[k, j, high]) - np.float64(volume[k, j, low])) / (spacing[0] * (high - low))
+    low, high = max(j - 1, 0), min(j + 1, ny - 1)
+    gy = (np.float64(volume[k, high, i]) - np.float64(volume[k, low, i])) / (spacing[1] * (high - low))
+    low, high = max(k - 1, 0), min(k + 1, nz - 1)
+    gz = (np.float64(volume[high, j, i]) - np.float64(volume[low, j, i])) / (spacing[2] * (high - low))
+    return gx, gy, gz
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _place_vertex(volume, iso, k, j, i, axis, vertex, spacing, origin, points, normals, on_sample):
+    """Position (and, if ``normals`` is not empty, normal) of the vertex on the edge from sample (i, j, k) along
+    ``axis``, interpolated linearly from that lower end; ``on_sample`` gets the flat index of the sample the vertex
+    falls on exactly, else -1. Normals are the negated gradient interpolated along the edge, normalised (zero where
+    the gradient vanishes)."""
+    nz, ny, nx = volume.shape
+    k1 = k + (axis == 2)
+    j1 = j + (axis == 1)
+    i1 = i + (axis == 0)
+    v0 = np.float64(volume[k, j, i])
+    t = (iso - v0) / (np.float64(volume[k1, j1, i1]) - v0)
+    points[vertex, 0] = origin[0] + spacing[0] * (i + t if axis == 0 else np.float64(i))
+    points[vertex, 1] = origin[1] + spacing[1] * (j + t if axis == 1 else np.float64(j))
+    points[vertex, 2] = origin[2] + spacing[2] * (k + t if axis == 2 else np.float64(k))
+    if t == 0.0:
+        on_sample[vertex] = (k * ny + j) * nx + i
+    elif t == 1.0:
+        on_sample[vertex] = (k1 * ny + j1) * nx + i1
     else:
-        low, high = max(k - 1, 0), min(k + 1, nz - 1)
-        a, b = volume[low, j, i], volume[high, j, i]
-    return (np.float64(b) - np.float64(a)) / (axis_spacing * (high - low))
+        on_sample[vertex] = -1
+    if normals.shape[0] > 0:
+        ax, ay, az = _gradient(volume, k, j, i, spacing)
+        bx, by, bz = _gradient(volume, k1, j1, i1, spacing)
+        x = -(ax + t * (bx - ax))
+        y = -(ay + t * (by - ay))
+        z = -(az + t * (bz - az))
+        length = np.sqrt(x * x + y * y + z * z)
+        scale = 1.0 / length if length > 0.0 else 0.0
+        normals[vertex, 0] = x * scale
+        normals[vertex, 1] = y * scale
+        normals[vertex, 2] = z * scale
+
+
+@njit(cache=True, nogil=True)
+def _fill_row(volume, threshold, iso, k, j, low, high, vertex_first, first_triangle, pair_case, triangle_table,
+              triangle_count, spacing, origin, codes, ids, points, normals, on_sample, triangles):
+    """Triangles of the row of cells ``(j, k)`` and the vertices of the edge rows it owns (columns low..high)."""
+    nz, ny, nx = volume.shape
+    last_row, top = _owned(j, k, ny, nz)
+    a0 = volume[k, j]
+    a1 = volume[k, j + 1]
+    b0 = volume[k + 1, j]
+    b1 = volume[k + 1, j + 1]
+    for i in range(low, high + 1):
+        codes[i] = (a0[i] >= threshold) + 2 * (a1[i] >= threshold) + 4 * (b0[i] >= threshold) + 8 * (
+            b1[i] >= threshold)
+    # Next vertex id of each edge row this row of cells touches: x edges of sample rows (j, k), (j + 1, k),
+    # (j, k + 1), (j + 1, k + 1); y edges of slices k, k + 1; z edges of sample rows j, j + 1.
+    nx0 = vertex_first[k, j, 0]
+    nx1 = vertex_first[k, j + 1, 0]
+    nx2 = vertex_first[k + 1, j, 0]
+    nx3 = vertex_first[k + 1, j + 1, 0]
+    ny0 = vertex_first[k, j, 1]
+    ny1 = vertex_first[k + 1, j, 1]
+    nz0 = vertex_first[k, j, 2]
+    nz1 = vertex_first[k, j + 1, 2]
+    row = first_triangle
+    previous = np.int64(codes[low])
+    for i in range(low, high + 1):
+        code = np.int64(codes[i])
+        if i > low:
+            if code == previous and (code == 0 or code == 15):
+                continue  # nothing cut here; the ids of uncut edges are never used
+            across = previous ^ code
+            # x edges from column i - 1 to i: slots 0-3 keep their ids for the cell (i - 1).
+            if across & 1:
+                ids[0] = nx0
+                _place_vertex(volume, iso, k, j, i - 1, 0, nx0, spacing, origin, points, normals, on_sample)
+                nx0 += 1
+            if (across >> 1) & 1:
+                ids[1] = nx1
+                if last_row:
+                    _place_vertex(volume, iso, k, j + 1, i - 1, 0, nx1, spacing, origin, points, normals, on_sample)
+                nx1 += 1
+            if (across >> 2) & 1:
+                ids[2] = nx2
+                if top:
+                    _place_vertex(volume, iso, k + 1, j, i - 1, 0, nx2, spacing, origin, points, normals, on_sample)
+                nx2 += 1
+            if (across >> 3) & 1:
+                ids[3] = nx3
+                if last_row and top:
+                    _place_vertex(volume, iso, k + 1, j + 1, i - 1, 0, nx3, spacing, origin, points, normals,
+                                  on_sample)
+                nx3 += 1
+        # y and z edges at column i: slots 5, 7, 9, 11 for the cell (i - 1), moved to 4, 6, 8, 10 for cell i.
+        if (code ^ (code >> 1)) & 1:
+            ids[5] = ny0
+            _place_vertex(volume, iso, k, j, i, 1, ny0, spacing, origin, points, normals, on_sample)
+            ny0 += 1
+        if ((code >> 2) ^ (code >> 3)) & 1:
+            ids[7] = ny1
+            if top:
+                _place_vertex(volume, iso, k + 1, j, i, 1, ny1, spacing, origin, points, normals, on_sample)
+            ny1 += 1
+        if (code ^ (code >> 2)) & 1:
+            ids[9] = nz0
+            _place_vertex(volume, iso, k, j, i, 2, nz0, spacing, origin, points, normals, on_sample)
+            nz0 += 1
+        if ((code >> 1) ^ (code >> 3)) & 1:
+            ids[11] = nz1
+            if last_row:
+                _place_vertex(volume, iso, k, j + 1, i, 2, nz1, spacing, origin, points, normals, on_sample)
+            nz1 += 1
+        if i > low:
+            case = pair_case[previous | (code << 4)]
+            for t in range(triangle_count[case]):
+                triangles[row, 0] = ids[triangle_table[case, 3 * t]]
+                triangles[row, 1] = ids[triangle_table[case, 3 * t + 1]]
+                triangles[row, 2] = ids[triangle_table[case, 3 * t + 2]]
+                row += 1
+        ids[4] = ids[5]
+        ids[6] = ids[7]
+        ids[8] = ids[9]
+        ids[10] = ids[11]
+        previous = code
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def vertex_attributes(volume, iso, vertex_edges, spacing, origin, points, normals, on_sample):
-    """Position (and, if ``normals`` is not empty, normal) of each vertex from its edge.
+def fill_layers(volume, threshold, iso, bounds, spans, vertex_first, triangle_first, pair_case, triangle_table,
+                triangle_count, spacing, origin, points, normals, on_sample, triangles):
+    """Triangles and owned vertices of the layers ``bounds[s]..bounds[s+1]-1``, one slab ``s`` per iteration.
 
-    Positions interpolate linearly from the edge's lower sample; ``on_sample[v]`` is the flat index of the sample
-    a vertex falls on exactly, else -1. Normals are the negated gradient interpolated along the edge, normalised
-    (zero where the gradient vanishes).
+    ``triangle_table`` holds id slots (:data:`TRIANGLES`); ``normals`` with zero rows skips the normals.
     """
     nz, ny, nx = volume.shape
-    for vertex in prange(vertex_edges.shape[0]):
-        k, j, i, k1, j1, i1, axis = _edge_ends(vertex_edges[vertex])
-        v0 = np.float64(volume[k, j, i])
-        t = (iso - v0) / (np.float64(volume[k1, j1, i1]) - v0)
-        points[vertex, 0] = origin[0] + spacing[0] * (i + t if axis == 0 else np.float64(i))
-        points[vertex, 1] = origin[1] + spacing[1] * (j + t if axis == 1 else np.float64(j))
-        points[vertex, 2] = origin[2] + spacing[2] * (k + t if axis == 2 else np.float64(k))
-        if t == 0.0:
-            on_sample[vertex] = (k * ny + j) * nx + i
-        elif t == 1.0:
-            on_sample[vertex] = (k1 * ny + j1) * nx + i1
-        else:
-            on_sample[vertex] = -1
-        if normals.shape[0] > 0:
-            g0 = _central_difference(volume, k, j, i, 0, spacing[0])
-            x = -(g0 + t * (_central_difference(volume, k1, j1, i1, 0, spacing[0]) - g0))
-            g0 = _central_difference(volume, k, j, i, 1, spacing[1])
-            y = -(g0 + t * (_central_difference(volume, k1, j1, i1, 1, spacing[1]) - g0))
-            g0 = _central_difference(volume, k, j, i, 2, spacing[2])
-            z = -(g0 + t * (_central_difference(volume, k1, j1, i1, 2, spacing[2]) - g0))
-            length = np.sqrt(x * x + y * y + z * z)
-            scale = 1.0 / length if length > 0.0 else 0.0
-            normals[vertex, 0] = x * scale
-            normals[vertex, 1] = y * scale
-            normals[vertex, 2] = z * scale
+    for slab in prange(bounds.shape[0] - 1):
+        codes = np.empty(nx, dtype=np.uint8)
+        ids = np.zeros(12, dtype=np.int64)
+        for k in range(bounds[slab], bounds[slab + 1]):
+            for j in range(ny - 1):
+                low = spans[k, j, 0]
+                high = spans[k, j, 1]
+                if low <= high:
+                    _fill_row(volume, threshold, iso, k, j, low, high, vertex_first, triangle_first[k, j],
+                              pair_case, triangle_table, triangle_count, spacing, origin, codes, ids, points,
+                              normals, on_sample, triangles)
 
 
 @njit(cache=True, nogil=True)
@@ -386,7 +372,6 @@ def merge_on_samples(points, normals, on_sample, triangles):
     if flagged.shape[0] == 0:
         return points.shape[0], triangles.shape[0]
     order = np.argsort(on_sample[flagged], kind="mergesort")  # stable: each group's lowest id first
-    new_id = np.arange(points.shape[0])
     leader = np.empty(flagged.shape[0], dtype=np.int64)
     freed = np.zeros(points.shape[0], dtype=np.bool_)
     holes = 0
@@ -398,6 +383,9 @@ def merge_on_samples(points, normals, on_sample, triangles):
             holes += 1
         else:
             leader[n] = vertex
+    if holes == 0:
+        return points.shape[0], triangles.shape[0]
+    new_id = np.arange(points.shape[0])
     count = points.shape[0] - holes
     mover = count
     for hole in range(count):  # fill freed ids below the new count with the kept vertices above it

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import CorruptFileError, DicomSeriesError
 from .pixels import decode_pixels, store, units
-from .scan import ElementError, SliceHeader, element, float_list, number, rescale, text, vector
+from .scan import ElementError, SliceHeader, element, float_list, number, rescale, study_fields, text, vector
 
 #: Tolerance on frame spacing regularity of legacy multi-frame files, as a fraction of the median spacing.
 SPACING_TOLERANCE = 0.01
@@ -155,6 +155,7 @@ def read_multiframe(path):
         "files_used": 1,
         "other_series": [],
         "warnings": warn,
+        "dicom": study_fields(Path(path)),
     }
     return Volume(
         store(values) if modality != "RTDOSE" else values.astype(np.float32),

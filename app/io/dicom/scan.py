@@ -206,6 +206,32 @@ def read_header(path: Path, notes: list[str] | None = None):
     return dataset
 
 
+#: Patient, study, series and equipment elements kept in ``volume.metadata["dicom"]`` (the provenance panel shows them).
+STUDY_KEYWORDS = (
+    "PatientName", "PatientID", "PatientBirthDate", "PatientSex", "PatientAge", "StudyDate", "StudyTime",
+    "StudyDescription", "StudyInstanceUID", "AccessionNumber", "SeriesNumber", "SeriesDescription", "SeriesDate",
+    "Modality", "BodyPartExamined", "ProtocolName", "Manufacturer", "ManufacturerModelName", "InstitutionName",
+    "SliceThickness", "KVP", "ConvolutionKernel", "MagneticFieldStrength", "RepetitionTime", "EchoTime",
+)
+
+
+def study_fields(path: Path) -> dict[str, str]:
+    """The :data:`STUDY_KEYWORDS` present in the header of ``path`` as text (an unreadable value is left out)."""
+    try:
+        dataset = read_header(path)
+    except Exception:  # the file was read once already; a second failure only loses the listing
+        return {}
+    fields = {}
+    for keyword in STUDY_KEYWORDS:
+        try:
+            value = text(dataset, keyword)
+        except ElementError:
+            continue
+        if value:
+            fields[keyword] = one_line(value)[:200]
+    return fields
+
+
 def slice_headers(path: Path, dataset) -> list[SliceHeader]:
     """The 2D images of one file: itself, its enhanced frames, or its MOSAIC tiles."""
     from .mosaic import mosaic_tiles

@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import DicomSeriesError
 from .multiframe import read_multiframe
 from .pixels import store
-from .scan import FolderScan, SeriesInfo, choose_series, read_header, scan_files, scan_folder
+from .scan import FolderScan, SeriesInfo, choose_series, read_header, scan_files, scan_folder, study_fields
 from .stack import (
     SliceFrame,
     choose_volume,
@@ -112,6 +112,7 @@ def _read(scan: FolderScan, folder: Path, series_uid, irregular, allow_gaps, vol
         "warnings": warn,
         "gantry_tilt_deg": round(tilt_deg, 4),
         "interpolated_slices": invented,
+        "dicom": study_fields(slices.headers[0].path),
     })
     try:
         return Volume(store(array), spacing=(pixel_spacing[1], pixel_spacing[0], spacing_k), origin=tuple(origin),

@@ -111,13 +111,15 @@ def test_all_four_shear_sign_cases_are_covered():
     assert len(seen) == 3 * 4 * 2
 
 
-def test_perspective_camera_is_rejected():
+def test_the_affine_factorisation_rejects_a_perspective_camera_the_renderer_factors_it_in_perspective():
     camera = Camera((0, -100, 0), (0, 0, 0), (0, 0, 1), parallel_projection=False)
     with pytest.raises(ValueError, match="parallel projection"):
         factorize(camera, (4, 4, 4), (1, 1, 1), 8, 8)
     renderer = ShearWarpRenderer(ZEROS, (1, 1, 1), RANDOM_TABLE)
-    with pytest.raises(ValueError, match="perspective"):
-        renderer.render(camera, 8, 8)
+    assert renderer.render(camera, 8, 8).stats["perspective"] == 1.0
+    inside = Camera((1.5, 1.5, 1.5), (1.5, 1.5, 0.0), (0, 1, 0), parallel_projection=False)
+    with pytest.raises(ValueError, match="outside the volume"):
+        renderer.render(inside, 8, 8)
 
 
 # --------------------------------------------------------------------------------------------------------------

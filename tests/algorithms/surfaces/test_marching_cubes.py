@@ -35,7 +35,7 @@ from algorithms.common.progress import OperationCancelled
 from algorithms.common.vtk_bridge import VTKError, image_from_array, polydata_arrays, run_algorithm
 from algorithms.datasets.volumes import ellipsoid_field, sphere_field, torus_field
 from algorithms.surfaces.marching_cubes import MarchingCubesFilter, MarchingCubesMesh, marching_cubes
-from algorithms.surfaces.marching_cubes import core, kernels, tables
+from algorithms.surfaces.marching_cubes import core, count_triangles, kernels, tables
 
 # VTK case numbers (bit c set when corner c is inside, value >= iso) whose cell has an ambiguous face. The set is
 # closed under complement, so Bourke's numbering (bits of the corners below the isovalue) gives the same list.
@@ -418,31 +418,59 @@ def test_float32_threshold_is_exact():
 # Parallel execution
 # --------------------------------------------------------------------------------------------------------------
 def test_slab_partition_does_not_change_the_mesh():
-    """The fill pass gives the same vertex numbering and triangles for any split of the layers into slabs,
-    including empty slabs and one-layer slabs, run concurrently."""
+    """The fill pass gives the same vertices and triangles for any split of the layers into slabs, including empty
+    slabs and one-layer slabs, run concurrently: each edge row's vertices are numbered from its prefix sum, so
+    the rows of cells sharing an edge row agree without talking to each other, and every slot is written once."""
     field = np.random.default_rng(11).integers(0, 1000, size=(12, 9, 10)).astype(np.int16)
     threshold = core._inside_threshold(field.dtype, 500.5)
-    inside = np.empty(field.shape, dtype=np.uint8)
-    spans = np.empty((11, 8, 2), dtype=np.int64)
-    counts = np.zeros((12, 4), dtype=np.int64)
-    kernels.classify_layers(field, threshold, 0, 11, kernels.PAIR_CASE, kernels.TRIANGLE_COUNT, kernels.POPCOUNT4,
-                            inside, spans, counts)
-    assert np.array_equal(inside, field >= 500.5)
-    planar = np.ascontiguousarray(counts[:, 0])
-    vertex_first = np.concatenate(([0], np.cumsum(planar + counts[:, 1])))
-    triangle_first = np.concatenate(([0], np.cumsum(counts[:, 2])))
+    counts = core._count(field, threshold, None)
+    assert counts.spans.shape == (11, 8, 2) and counts.edges.shape == (12, 9, 3)
+    inside = field >= 500.5
+    # The counting pass owns every edge row exactly once: its counts are the cut edges of that row.
+    assert np.array_equal(counts.edges[:, :, 0], (inside[:, :, 1:] != inside[:, :, :-1]).sum(axis=2))
+    assert np.array_equal(counts.edges[:, :-1, 1], (inside[:, 1:, :] != inside[:, :-1, :]).sum(axis=2))
+    assert np.array_equal(counts.edges[:-1, :, 2], (inside[1:] != inside[:-1]).sum(axis=2))
+    assert not counts.edges[:, -1, 1].any() and not counts.edges[-1, :, 2].any()
+    vertex_first = np.cumsum(counts.edges.ravel()).reshape(counts.edges.shape) - counts.edges
+    triangle_first = np.cumsum(counts.triangles.ravel()).reshape(counts.triangles.shape) - counts.triangles
+    vertices, triangle_total = int(counts.edges.sum()), int(counts.triangles.sum())
     results = []
     for bounds in ([0, 11], [0, 1, 1, 4, 5, 9, 11, 11], [0, 0, 11], list(range(12))):
-        edges = np.full(vertex_first[-1], -1, dtype=np.int64)
-        triangles = np.full((triangle_first[-1], 3), -1, dtype=np.int64)
-        kernels.fill_slabs(inside, np.array(bounds, dtype=np.int64), vertex_first, planar, triangle_first, spans,
-                           kernels.PAIR_CASE, kernels.TRIANGLES, kernels.TRIANGLE_COUNT, kernels.EDGE_SLOTS, edges,
-                           triangles)
-        results.append((edges, triangles))
-    reference_edges, reference_triangles = results[0]
-    assert reference_edges.min() >= 0 and reference_triangles.min() >= 0  # every slot written
-    for edges, triangles in results[1:]:
-        assert np.array_equal(edges, reference_edges) and np.array_equal(triangles, reference_triangles)
+        points = np.full((vertices, 3), np.nan, dtype=np.float32)
+        on_sample = np.full(vertices, -7, dtype=np.int64)
+        triangles = np.full((triangle_total, 3), -1, dtype=np.int64)
+        kernels.fill_layers(field, threshold, 500.5, np.array(bounds, dtype=np.int64), counts.spans, vertex_first,
+                            triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES, kernels.TRIANGLE_COUNT,
+                            np.ones(3), np.zeros(3), points, np.empty((0, 3), np.float32), on_sample, triangles)
+        results.append((points, on_sample, triangles))
+    reference_points, reference_on_sample, reference_triangles = results[0]
+    assert not np.isnan(reference_points).any() and reference_on_sample.min() == -1  # every vertex placed once
+    assert reference_triangles.min() >= 0 and np.array_equal(np.unique(reference_triangles), np.arange(vertices))
+    for points, on_sample, triangles in results[1:]:
+        assert np.array_equal(points, reference_points) and np.array_equal(triangles, reference_triangles)
+        assert np.array_equal(on_sample, reference_on_sample)
+
+
+def test_count_triangles_is_the_triangles_before_merging(ct_small):
+    field = np.random.default_rng(3).integers(0, 1000, size=(12, 9, 10)).astype(np.int16)
+    assert count_triangles(field, 500.5) == len(marching_cubes(field, 500.5).triangles)
+    # On a sample equal to the isovalue collapsed triangles are dropped: the count is an upper bound.
+    exact = count_triangles(ct_small.array, 300.0)
+    assert exact >= len(marching_cubes(ct_small.array, 300.0).triangles) > 0.99 * exact
+    assert count_triangles(ct_small.array, 300.5, stride=2) == len(marching_cubes(ct_small.array, 300.5,
+                                                                                   stride=2).triangles)
+    assert count_triangles(ct_small.array, 40000.0) == 0
+    with pytest.raises(ValueError, match="one isovalue"):
+        count_triangles(field, [1.0, 2.0])
+
+
+def test_long_rows_are_not_limited():
+    """Vertices are numbered per edge row, not packed into bit fields: a row of 70,000 samples is fine."""
+    field = np.zeros((2, 2, 70000), dtype=np.uint8)
+    field[:, :, 30000:40000] = 1
+    mesh = marching_cubes(field, 0.5)
+    assert len(mesh.triangles) > 0 and sc.edge_manifoldness(mesh.points, mesh.triangles).manifold
+    assert mesh.points[:, 0].min() == 29999.5 and mesh.points[:, 0].max() == 39999.5
 
 
 def test_parallel_and_serial_runs_agree(ct_small, monkeypatch):
@@ -477,7 +505,6 @@ def test_progress_is_reported_and_cancellation_propagates():
         (np.zeros((4, 4, 4), dtype=complex), 0.5, {}, "real scalar"),
         (np.zeros((1, 4, 4)), 0.5, {}, "at least 2 samples"),
         (np.zeros((2, 4, 4)), 0.5, {"stride": 2}, "after stride 2"),
-        (np.zeros((2, 2, 65537), dtype=np.uint8), 0.5, {}, "at most 65536"),
         (np.full((3, 3, 3), np.nan, dtype=np.float32), 0.5, {}, "NaN"),
         (np.zeros((3, 3, 3)), [], {}, "one isovalue or a sequence"),
         (np.zeros((3, 3, 3)), [[0.5]], {}, "one isovalue or a sequence"),

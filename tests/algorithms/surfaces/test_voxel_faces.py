@@ -26,7 +26,7 @@ from algorithms.surfaces.voxel_faces import DIRECTION_NAMES, VoxelFacesFilter, v
 SPACING = (0.7, 1.1, 2.3)
 ORIGIN = (-3.0, 5.0, 7.5)
 COLIN_PATHS = (
-    Path(__file__).resolve().parents[3] / "sample_volumes" / "colin27_t1_ch2.nii.gz",
+    Path("/usr/share/mricron/templates/ch2.nii.gz"),  # Debian's mricron-data, installed by the set-up scripts
     Path(__file__).resolve().parents[4] / "shared" / "data" / "colin27_t1_ch2.nii.gz",
 )
 

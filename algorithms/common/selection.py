@@ -1,0 +1,321 @@
+"""Cut-away tools evaluated per sample: the compact description every renderer takes, and its numba kernels.
+
+Method (source 002: Kähler, *Vergleich von Volumenmodellen*, MSc thesis, TU Kaiserslautern, about 2009, sections 2.5
+and 3.3.1). A *selection volume* - a small tool with its own resolution and an affine transform ``M`` relative to the
+data - masks the data per sample: a sample at ``p_d`` is discarded when the tool is non-zero at ``p_s = M^-1 p_d``
+("Wenn s != 0, dann verwerfe das Pixel"), so moving the tool never rewrites the data. Section 3.3.1 replaces the
+binary test by the difference of distance fields, ``f_data \\ f_tool = max(f_data, -f_tool)`` (negative inside),
+which gives smooth cut surfaces with correct normals.
+
+Here every tool is a signed distance ``f`` in mm (negative inside) of a shape in its own frame: a box, a sphere, a
+cylinder (axis along the tool's z), a half-space (the side its z axis points into), or a small grid of values (a
+binary mask stored as ``(0.5 - m) h`` with ``h`` its mean voxel size, so the sign is exact and the magnitude within
+one voxel; or a distance field in mm) read by trilinear interpolation in its own index space. A ``remove`` tool
+removes where ``f < 0``, a ``keep`` tool where ``f > 0``; several tools remove the union of their removals. The
+combined *removal field* is ::
+
+    g(p) = min_t r_t(p),   r_t = f_t(M_t^-1 p) (remove) or -f_t(M_t^-1 p) (keep)
+
+and a sample is kept where ``g >= 0`` (``binary`` evaluation, source 002's test), or weighted by
+``clamp(1/2 + g / w, 0, 1)`` with ``w`` the transition width (one voxel; ``distance`` evaluation: the CSG difference
+of 3.3.1 applied to opacity, a smooth, anti-aliased cut). Within ``band`` mm of the cut (``0 <= g < band``) the
+renderers shade with the tool's normal ``grad g / |grad g|`` (central differences of ``g``) instead of the data
+gradient, whose stencil reaches into the removed region (source 002 pays six extra selection look-ups per gradient
+for this; the analytic tool normal costs six evaluations of ``g`` at cut samples only). ``cut_normals=False`` is
+the cheap path the source recommends while the tool moves: the data gradient is used as it is.
+
+Coordinates: :class:`ToolSet` matrices take a point of the *renderer's frame* (the volume frame, mm: voxel
+``(i, j, k)`` at ``(i sx, j sy, k sz)``) to the tool's frame (mm; for grid tools straight to the grid's continuous
+index ``(i, j, k)``). Kernels take points in that frame, in mm, ``(x, y, z)`` order. Arrays are ``(nz, ny, nx)``.
+
+Numba: the tool set is passed to kernels as the tuple :meth:`ToolSet.packed` (kinds, modes, matrices, parameters,
+grid offsets, grid shapes, grid values, settings); an empty tool set costs one comparison per sample.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+#: Shape codes.
+BOX, SPHERE, CYLINDER, HALFSPACE, GRID = 0, 1, 2, 3, 4
+SHAPES = {"box": BOX, "sphere": SPHERE, "cylinder": CYLINDER, "plane": HALFSPACE, "grid": GRID}
+#: Mode codes: ``remove`` cuts away what is inside, ``keep`` keeps only the inside (a region of interest).
+REMOVE, KEEP = 0, 1
+MODES = ("remove", "keep")
+#: Evaluation codes.
+BINARY, DISTANCE = 0, 1
+EVALUATIONS = ("binary", "distance")
+#: The removal value far from every tool, or outside a grid tool's grid (mm).
+FAR = 1.0e9
+
+
+@dataclass(frozen=True, eq=False)
+class ToolSet:
+    """Tools in a renderer's frame, as arrays for numba kernels (see the module notes).
+
+    ``kinds``, ``modes`` ``(n,)`` int64; ``matrices`` ``(n, 4, 4)`` float64 (renderer frame mm -> tool frame mm, or
+    grid index for grid tools); ``params`` ``(n, 4)`` float64 (box: half sizes; sphere: radius; cylinder: radius and
+    half height; grid: the mm per index unit, for the gradient); ``grid_offsets`` ``(n,)`` and ``grid_shapes`` ``(n, 3)``
+    (nx, ny, nz) int64 locate each grid tool's values in the flat float32 ``grid_values``. ``evaluation`` is
+    ``"binary"`` or ``"distance"``, ``width`` the distance evaluation's transition (mm), ``band`` the depth (mm) within
+    which cut samples take the tool's normal, ``cut_normals`` False on the cheap path while a tool moves.
+    """
+
+    kinds: np.ndarray
+    modes: np.ndarray
+    matrices: np.ndarray
+    params: np.ndarray
+    grid_offsets: np.ndarray
+    grid_shapes: np.ndarray
+    grid_values: np.ndarray
+    evaluation: str = "binary"
+    width: float = 1.0
+    band: float = 1.5
+    cut_normals: bool = True
+
+    def __post_init__(self) -> None:
+        n = len(self.kinds)
+        shapes = {"kinds": (n,), "modes": (n,), "matrices": (n, 4, 4), "params": (n, 4), "grid_offsets": (n,),
+                  "grid_shapes": (n, 3)}
+        for name, shape in shapes.items():
+            if np.shape(getattr(self, name)) != shape:
+                raise ValueError(f"tool set: {name} must have shape {shape}, got {np.shape(getattr(self, name))}")
+        if self.evaluation not in EVALUATIONS:
+            raise ValueError(f"tool evaluation must be one of {', '.join(EVALUATIONS)}, got {self.evaluation!r}")
+        if not np.all(np.isfinite(self.matrices)) or not np.all(np.isfinite(self.params)):
+            raise ValueError("tool matrices and parameters must be finite")
+        if not (self.width > 0 and self.band >= 0):
+            raise ValueError(f"tool width must be positive and band non-negative (mm), got {self.width}, {self.band}")
+
+    def __len__(self) -> int:
+        return len(self.kinds)
+
+    def exact_distance(self) -> bool:
+        """True when ``g`` is a true signed distance (mm): no grid tools and every matrix rigid."""
+        if np.any(self.kinds == GRID):
+            return False
+        rotations = self.matrices[:, :3, :3]
+        identity = np.broadcast_to(np.eye(3), rotations.shape)
+        return bool(np.allclose(np.transpose(rotations, (0, 2, 1)) @ rotations, identity, rtol=0.0, atol=1e-9))
+
+    @classmethod
+    def empty(cls) -> "ToolSet":
+        return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 4, 4)), np.zeros((0, 4)),
+                   np.zeros(0, np.int64), np.zeros((0, 3), np.int64), np.zeros(1, np.float32))
+
+    def with_settings(self, **changes) -> "ToolSet":
+        """The same tools with other ``evaluation``, ``width``, ``band`` or ``cut_normals``."""
+        values = {name: getattr(self, name) for name in self.__dataclass_fields__}
+        values.update(changes)
+        return ToolSet(**values)
+
+    def in_frame(self, frame_to_old) -> "ToolSet":
+        """The tools for a renderer whose frame maps to this set's frame by the 4x4 ``frame_to_old``."""
+        matrix = np.asarray(frame_to_old, dtype=np.float64)
+        return self.with_settings(matrices=np.ascontiguousarray(self.matrices @ matrix))
+
+    def key(self) -> tuple:
+        """A hashable summary (changes when any tool or setting changes; grid values by identity)."""
+        return (self.kinds.tobytes(), self.modes.tobytes(), self.matrices.tobytes(), self.params.tobytes(),
+                id(self.grid_values), self.evaluation, self.width, self.band, self.cut_normals)
+
+    def packed(self) -> tuple:
+        """The tuple the kernels take: ``(kinds, modes, matrices, params, offsets, shapes, values, settings)`` with
+        ``settings = (evaluation code, width mm, band mm, cut normals 0/1, exact 0/1)`` float64; ``exact``: every
+        tool is a shape (no grid) placed rigidly, so ``g`` is a true signed distance and :func:`leap_distance` may
+        skip removed samples."""
+        settings = np.array([EVALUATIONS.index(self.evaluation), self.width, self.band, float(self.cut_normals),
+                             float(self.exact_distance())])
+        return (np.ascontiguousarray(self.kinds, dtype=np.int64), np.ascontiguousarray(self.modes, dtype=np.int64),
+                np.ascontiguousarray(self.matrices, dtype=np.float64),
+                np.ascontiguousarray(self.params, dtype=np.float64),
+                np.ascontiguousarray(self.grid_offsets, dtype=np.int64),
+                np.ascontiguousarray(self.grid_shapes, dtype=np.int64),
+                np.ascontiguousarray(self.grid_values, dtype=np.float32), settings)
+
+
+def packed_tools(tools: "ToolSet | None") -> tuple:
+    """:meth:`ToolSet.packed` of ``tools``, or of an empty set for None."""
+    return (tools if tools is not None else ToolSet.empty()).packed()
+
+
+# -- kernels ----------------------------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _grid_value(values, offset, nx, ny, nz, x, y, z):
+    """Trilinear value of a grid tool at continuous index ``(x, y, z)``; :data:`FAR` outside its voxel centres."""
+    if not (0.0 <= x <= nx - 1 and 0.0 <= y <= ny - 1 and 0.0 <= z <= nz - 1):
+        return FAR
+    i0 = min(int(x), max(nx - 2, 0))
+    j0 = min(int(y), max(ny - 2, 0))
+    k0 = min(int(z), max(nz - 2, 0))
+    i1, j1, k1 = min(i0 + 1, nx - 1), min(j0 + 1, ny - 1), min(k0 + 1, nz - 1)
+    fx, fy, fz = x - i0, y - j0, z - k0
+    row = nx
+    plane = nx * ny
+    c000 = values[offset + k0 * plane + j0 * row + i0]
+    c001 = values[offset + k0 * plane + j0 * row + i1]
+    c010 = values[offset + k0 * plane + j1 * row + i0]
+    c011 = values[offset + k0 * plane + j1 * row + i1]
+    c100 = values[offset + k1 * plane + j0 * row + i0]
+    c101 = values[offset + k1 * plane + j0 * row + i1]
+    c110 = values[offset + k1 * plane + j1 * row + i0]
+    c111 = values[offset + k1 * plane + j1 * row + i1]
+    c00 = c000 + fx * (c001 - c000)
+    c01 = c010 + fx * (c011 - c010)
+    c10 = c100 + fx * (c101 - c100)
+    c11 = c110 + fx * (c111 - c110)
+    c0 = c00 + fy * (c01 - c00)
+    c1 = c10 + fy * (c11 - c10)
+    return c0 + fz * (c1 - c0)
+
+
+@njit(cache=True, nogil=True)
+def _shape_distance(kind, params, x, y, z, values, offset, shape):
+    """Signed distance (mm, negative inside) of one tool's shape at ``(x, y, z)`` in the tool's own frame."""
+    if kind == SPHERE:
+        return math.sqrt(x * x + y * y + z * z) - params[0]
+    if kind == BOX:
+        qx, qy, qz = abs(x) - params[0], abs(y) - params[1], abs(z) - params[2]
+        outside = math.sqrt(max(qx, 0.0) ** 2 + max(qy, 0.0) ** 2 + max(qz, 0.0) ** 2)
+        return outside + min(max(qx, max(qy, qz)), 0.0)
+    if kind == CYLINDER:
+        qr = math.sqrt(x * x + y * y) - params[0]
+        qh = abs(z) - params[1]
+        outside = math.sqrt(max(qr, 0.0) ** 2 + max(qh, 0.0) ** 2)
+        return outside + min(max(qr, qh), 0.0)
+    if kind == HALFSPACE:
+        return -z
+    return _grid_value(values, offset, shape[0], shape[1], shape[2], x, y, z)
+
+
+@njit(cache=True, nogil=True)
+def removal(tools, x, y, z):
+    """The removal field ``g`` (mm) at ``(x, y, z)`` (renderer frame, mm): negative where a sample is removed."""
+    kinds, modes, matrices, params, offsets, shapes, values = (tools[0], tools[1], tools[2], tools[3], tools[4],
+                                                               tools[5], tools[6])
+    g = FAR
+    for t in range(kinds.shape[0]):
+        m = matrices[t]
+        lx = m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]
+        ly = m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]
+        lz = m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3]
+        f = _shape_distance(kinds[t], params[t], lx, ly, lz, values, offsets[t], shapes[t])
+        r = f if modes[t] == REMOVE else -f
+        if r < g:
+            g = r
+    return g
+
+
+@njit(cache=True, nogil=True)
+def visibility(tools, g):
+    """The weight (0 .. 1) of a sample whose removal value is ``g``: binary ``g >= 0``, or the smooth ramp
+    ``clamp(1/2 + g / width, 0, 1)`` of the distance evaluation."""
+    settings = tools[7]
+    if settings[0] == BINARY:
+        return 1.0 if g >= 0.0 else 0.0
+    w = 0.5 + g / settings[1]
+    return min(max(w, 0.0), 1.0)
+
+
+@njit(cache=True, nogil=True)
+def removal_normal(tools, x, y, z, h):
+    """``grad g / |grad g|`` at ``(x, y, z)`` by central differences ``h`` mm wide (the cut surface's normal,
+    pointing out of the removed region); zeros where the gradient vanishes."""
+    gx = removal(tools, x + h, y, z) - removal(tools, x - h, y, z)
+    gy = removal(tools, x, y + h, z) - removal(tools, x, y - h, z)
+    gz = removal(tools, x, y, z + h) - removal(tools, x, y, z - h)
+    norm = math.sqrt(gx * gx + gy * gy + gz * gz)
+    if norm > 0.0:
+        return gx / norm, gy / norm, gz / norm
+    return 0.0, 0.0, 0.0
+
+
+@njit(cache=True, nogil=True)
+def tool_count(tools):
+    return tools[0].shape[0]
+
+
+@njit(cache=True, nogil=True)
+def leap_distance(tools, g):
+    """How far (mm) from a sample with removal value ``g`` every point is still fully removed: ``-g`` (binary) or
+    ``-g - width/2`` (distance), when ``g`` is a true distance (shapes placed rigidly: 1-Lipschitz, and leaving the
+    union of removals means leaving the tool that gives the minimum); 0 otherwise. Ray marchers leap that far."""
+    settings = tools[7]
+    if settings[4] <= 0.0 or g >= 0.0:
+        return 0.0
+    depth = -g if settings[0] == BINARY else -g - 0.5 * settings[1]
+    return max(depth, 0.0)
+
+
+@njit(cache=True, nogil=True)
+def cut_normals_on(tools):
+    return tools[7][3] > 0.0
+
+
+@njit(cache=True, nogil=True)
+def cut_band(tools):
+    return tools[7][2]
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def removal_on_grid(tools, shape, spacing, out):
+    """``g`` at every voxel centre of a ``shape`` ``(nz, ny, nx)`` grid with ``spacing`` ``(sx, sy, sz)`` in the
+    tools' frame (voxel ``(i, j, k)`` at ``(i sx, j sy, k sz)``), into the float32 array ``out``."""
+    nz, ny, nx = shape[0], shape[1], shape[2]
+    for k in prange(nz):
+        z = k * spacing[2]
+        for j in range(ny):
+            y = j * spacing[1]
+            for i in range(nx):
+                out[k, j, i] = removal(tools, i * spacing[0], y, z)
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def removal_at_points(tools, points, out):
+    """``g`` at ``points`` ``(n, 3)`` (renderer frame, mm) into ``out`` ``(n,)``."""
+    for p in prange(points.shape[0]):
+        out[p] = removal(tools, points[p, 0], points[p, 1], points[p, 2])
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def normals_at_points(tools, points, h, out):
+    """:func:`removal_normal` at ``points`` ``(n, 3)`` into ``out`` ``(n, 3)``."""
+    for p in prange(points.shape[0]):
+        nx, ny, nz = removal_normal(tools, points[p, 0], points[p, 1], points[p, 2], h)
+        out[p, 0] = nx
+        out[p, 1] = ny
+        out[p, 2] = nz
+
+
+def removal_field(tools: ToolSet, shape, spacing) -> np.ndarray:
+    """The removal field ``g`` (float32 mm, ``(nz, ny, nx)``) of ``tools`` at the voxel centres of a grid of
+    ``shape`` and ``spacing`` in the tools' frame; ``g < 0`` marks removed voxels."""
+    shape = tuple(int(n) for n in shape)
+    if len(shape) != 3 or min(shape) < 1:
+        raise ValueError(f"the grid shape must be three positive sizes (nz, ny, nx), got {shape}")
+    out = np.empty(shape, dtype=np.float32)
+    if len(tools) == 0:
+        out.fill(FAR)
+        return out
+    removal_on_grid(tools.packed(), np.asarray(shape, dtype=np.int64), np.asarray(spacing, dtype=np.float64), out)
+    return out
+
+
+def removal_values(tools: ToolSet, points) -> np.ndarray:
+    """``g`` (mm) at ``points`` ``(n, 3)`` in the tools' frame (mm)."""
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    out = np.empty(len(points), dtype=np.float64)
+    removal_at_points(tools.packed(), points, out)
+    return out
+
+
+def removal_normals(tools: ToolSet, points, h: float = 0.25) -> np.ndarray:
+    """Unit normals of the cut (``grad g / |grad g|``) at ``points`` ``(n, 3)``, central differences ``h`` mm."""
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    out = np.empty((len(points), 3), dtype=np.float64)
+    normals_at_points(tools.packed(), points, float(h), out)
+    return out

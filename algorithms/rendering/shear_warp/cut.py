@@ -1,0 +1,191 @@
+"""Cut-away tools in shear-warp: the per-sample selection test at compositing (source 002, section 2.5).
+
+The run-length encoded volume (source 004, section 5.2.2) is never changed when a tool moves: each sample that the
+compositing loop of :func:`algorithms.rendering.shear_warp.kernels.composite_rle` resamples from a slice is tested
+against the tools (:mod:`algorithms.common.selection`) at its position in the slice before it is composited; a
+removed sample is skipped (binary evaluation) or weighted by the smooth ramp of the distance evaluation (source 002,
+section 3.3.1). Within the cut band, with shading, the sample is shaded with the tool's normal (quantised on the
+normal table's grid, source 004, 5.2.7) instead of the data gradient. The transparent-run and opaque-pixel skipping
+of the encoding stay valid: a tool only removes matter.
+
+Coordinates: the kernel evaluates the tools in the *standard* index frame of the principal axis, ``(i, j, k)`` =
+(voxel along the scanline, scanline, slice) of the rendered grid; :func:`tools_in_standard_frame` maps a
+:class:`~algorithms.common.selection.ToolSet` given in the volume frame (mm) to it, so distances stay in mm.
+Only parallel, unjittered frames of the run-length encoded volume take tools (the path of source 004's
+compositing); perspective and jittered frames refuse them with a ValueError.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ...common.selection import ToolSet, cut_band, cut_normals_on, removal, removal_normal, visibility
+from .factorisation import STANDARD_AXES
+from .kernels import _A_LEFT, _A_RIGHT, _B_LEFT, _B_RIGHT, _accumulate, _advance, _composite, _slice_setup, _start
+from .kernels import find_opaque_run_end
+
+
+def tools_in_standard_frame(tools: ToolSet, principal_axis: int, spacing) -> ToolSet:
+    """``tools`` (volume frame, mm) for points given as standard indices ``(i, j, k)`` of ``principal_axis`` on a
+    grid of ``spacing`` ``(sx, sy, sz)`` mm (voxel index times spacing = volume frame)."""
+    frame = np.zeros((4, 4))
+    frame[3, 3] = 1.0
+    for column, axis in enumerate(STANDARD_AXES[principal_axis]):
+        frame[axis, column] = float(spacing[axis])
+    return tools.in_frame(frame)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _tool_normal_index(tools, i, j, k, axes, spacing, encoding, half_grid, zero_index):
+    """The normal-table index of the cut's normal at standard position ``(i, j, k)``: ``-grad g`` in the volume
+    frame (pointing into the removed region, like the data normal ``-grad f`` points out of dense matter)."""
+    gi, gj, gk = removal_normal(tools, i, j, k, 0.5)
+    g = np.zeros(3)
+    g[axes[0]] = gi / spacing[axes[0]]
+    g[axes[1]] = gj / spacing[axes[1]]
+    g[axes[2]] = gk / spacing[axes[2]]
+    norm = np.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+    if norm == 0.0:
+        return np.int64(zero_index)
+    vx = np.int64(np.rint(half_grid - half_grid * g[0] / norm))
+    vy = np.int64(np.rint(half_grid - half_grid * g[1] / norm))
+    return np.int64(encoding[0 if g[2] <= 0.0 else 1, vx, vy])
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def composite_rle_cut(
+    run_lengths, voxel_classes, voxel_normals, line_runs, line_voxels, nj, ni,
+    slice_order, pixel_i, pixel_j, fraction_i, fraction_j,
+    table, shade, shading, opacity_threshold, opaque_threshold,
+    image, offsets, row_start, row_stop, block, counts,
+    tools, axes, spacing, encoding, half_grid, zero_index,
+):
+    """:func:`~algorithms.rendering.shear_warp.kernels.composite_rle` with the tools' per-sample test (module notes).
+
+    ``tools``: packed :class:`~algorithms.common.selection.ToolSet` in the standard index frame; ``axes``: the
+    principal axis's :data:`STANDARD_AXES`; ``spacing``: the rendered grid's ``(sx, sy, sz)``; ``encoding``,
+    ``half_grid``, ``zero_index``: the normal table's quantisation (for the cut's normal with shading).
+    ``counts[task, 3]`` receives the samples the tools removed.
+    """
+    n_tasks = counts.shape[0]
+    tool_shading = shading and cut_normals_on(tools)
+    band = cut_band(tools)
+    for task in prange(n_tasks):
+        cursor = np.zeros((4, 4), dtype=np.int64)
+        composited = 0
+        transparent = 0
+        hidden = 0
+        removed = 0
+        for v in _task_rows_cut(task, n_tasks, block, row_start, row_stop):
+            row_offsets = offsets[v]
+            for k in slice_order:
+                line_a, use_b, use_r, count, u0, w_al, w_ar, w_bl, w_br = _slice_setup(
+                    v, k, nj, ni, pixel_i, pixel_j, fraction_i, fraction_j)
+                if line_a < 0:
+                    continue
+                sample_j = line_a + fraction_j[k]
+                sample_k = np.float64(k)
+                line_a += k * nj
+                line_b = line_a + use_b
+                started = False
+                a = 0
+                while a < count:
+                    u = u0 + a
+                    if row_offsets[u] > 0:
+                        run = find_opaque_run_end(row_offsets, u) - u
+                        if a + run >= count:
+                            hidden += count - a
+                            break
+                        hidden += run
+                        a += run
+                        if started:
+                            for slot in range(4):
+                                _advance(cursor, slot, run, run_lengths)
+                        continue
+                    if not started:
+                        _start(cursor, _A_LEFT, line_a, a, line_runs, line_voxels, run_lengths)
+                        _start(cursor, _A_RIGHT, line_a, a + use_r, line_runs, line_voxels, run_lengths)
+                        _start(cursor, _B_LEFT, line_b, a, line_runs, line_voxels, run_lengths)
+                        _start(cursor, _B_RIGHT, line_b, a + use_r, line_runs, line_voxels, run_lengths)
+                        started = True
+                    stretch = min(count - a, cursor[_A_LEFT, 1], cursor[_A_RIGHT, 1])
+                    stretch = min(stretch, cursor[_B_LEFT, 1], cursor[_B_RIGHT, 1])
+                    shown_al = cursor[_A_LEFT, 3] == 1
+                    shown_ar = use_r == 1 and cursor[_A_RIGHT, 3] == 1
+                    shown_bl = use_b == 1 and cursor[_B_LEFT, 3] == 1
+                    shown_br = use_b == 1 and use_r == 1 and cursor[_B_RIGHT, 3] == 1
+                    if not (shown_al or shown_ar or shown_bl or shown_br):
+                        transparent += stretch
+                    else:
+                        e_al, e_ar = cursor[_A_LEFT, 2], cursor[_A_RIGHT, 2]
+                        e_bl, e_br = cursor[_B_LEFT, 2], cursor[_B_RIGHT, 2]
+                        done = 0
+                        while done < stretch and row_offsets[u + done] == 0:
+                            # Source 002, 2.5: the selection test at the sample's position in the slice.
+                            sample_i = a + done + fraction_i[k]
+                            gval = removal(tools, sample_i, sample_j, sample_k)
+                            weight_cut = visibility(tools, gval)
+                            if weight_cut <= 0.0:
+                                removed += 1
+                                done += 1
+                                continue
+                            cut_normal = np.int64(-1)
+                            if tool_shading and gval < band:
+                                cut_normal = _tool_normal_index(tools, sample_i, sample_j, sample_k, axes, spacing,
+                                                                encoding, half_grid, zero_index)
+                            red = green = blue = alpha = np.float32(0.0)
+                            for shown, weight, e in ((shown_al, w_al, e_al + done), (shown_ar, w_ar, e_ar + done),
+                                                     (shown_bl, w_bl, e_bl + done), (shown_br, w_br, e_br + done)):
+                                if shown:
+                                    normal = np.int64(0)
+                                    if shading:
+                                        normal = cut_normal if cut_normal >= 0 else np.int64(voxel_normals[e])
+                                    red, green, blue, alpha = _accumulate(
+                                        red, green, blue, alpha, weight, voxel_classes[e], normal, table, shade,
+                                        shading)
+                            if weight_cut < 1.0:
+                                cut = np.float32(weight_cut)
+                                red, green, blue, alpha = red * cut, green * cut, blue * cut, alpha * cut
+                            _composite(image, offsets, v, u + done, red, green, blue, alpha,
+                                       opacity_threshold, opaque_threshold)
+                            done += 1
+                        composited += done
+                        stretch = done
+                    if a + stretch >= count:
+                        break
+                    for slot in range(4):
+                        _advance(cursor, slot, stretch, run_lengths)
+                    a += stretch
+        counts[task, 0] = composited
+        counts[task, 1] = transparent
+        counts[task, 2] = hidden
+        counts[task, 3] = removed
+
+
+@njit(cache=True, nogil=True)
+def _task_rows_cut(task, n_tasks, block, row_start, row_stop):
+    """The rows task ``task`` composites (as the uncut kernel deals them out)."""
+    rows = np.arange(row_start, row_stop)
+    return rows[((rows - row_start) // block) % n_tasks == task]
+
+
+def composite_with_tools(copy, factorization, table, shade, shading, opacity_threshold, opaque, image, offsets,
+                         first, last, block, counts, tools: ToolSet, rendered_spacing, normal_table) -> int:
+    """Composite rows ``[first, last)`` of a parallel, unjittered frame with ``tools`` (volume frame, mm) into
+    ``image``; ``counts`` ``(tasks, 3)`` as the uncut kernel fills it. Returns the samples the tools removed."""
+    f = factorization
+    pixel_i, pixel_j, fraction_i, fraction_j = f.slice_offsets()
+    standard = tools_in_standard_frame(tools, f.principal_axis, rendered_spacing)
+    if normal_table is not None:
+        encoding, half_grid, zero_index = normal_table.encoding, float(normal_table.grid // 2), normal_table.zero_index
+    else:
+        encoding, half_grid, zero_index = np.zeros((2, 1, 1), dtype=np.int32), 0.0, 0
+    counts4 = np.zeros((counts.shape[0], 4), dtype=np.int64)
+    composite_rle_cut(copy.run_lengths, copy.classes, copy.normals, copy.line_runs, copy.line_voxels, copy.shape[1],
+                      copy.shape[2], f.slice_order, pixel_i, pixel_j, fraction_i, fraction_j, table, shade, shading,
+                      opacity_threshold, opaque, image, offsets, first, last, block, counts4, standard.packed(),
+                      np.array(STANDARD_AXES[f.principal_axis], dtype=np.int64),
+                      np.asarray(rendered_spacing, dtype=np.float64), encoding, half_grid, np.uint16(zero_index))
+    counts[:] = counts4[:, :3]
+    return int(counts4[:, 3].sum())

@@ -1,0 +1,115 @@
+"""``voxelscope distance``: a mesh's signed distance field (mm, negative inside) written as NIfTI, NRRD, MetaImage
+or VTI.
+
+``voxelscope distance MESH (--grid N | --like VOLUME | --spacing SX SY SZ) [--band D|P%] [--outside
+clamp|propagate] [--inside parity|winding] -o FIELD [--json]`` runs the "distance" operation
+(:mod:`app.operations.distance`), the same the window's Operations menu runs. The JSON report holds the grid,
+``band_mm``, ``seconds`` (``sign``, ``band``, ``outside``, ``total``) and the value range.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from .common import CommandError, print_json, refuse_existing
+
+NAME = "distance"
+HELP = "a mesh's signed distance field (mm, negative inside), exact in a band, written as NIfTI/NRRD/MHA/VTI"
+ORDER = 26
+
+
+def add_grid_arguments(parser, *, required: bool = True) -> None:
+    from ..operations.voxelise import DEFAULT_GRID
+
+    where = parser.add_mutually_exclusive_group(required=required)
+    where.add_argument("--grid", type=int, metavar="N",
+                       help=f"N voxels along the longest side, cubic voxels (e.g. {DEFAULT_GRID})")
+    where.add_argument("--like", metavar="VOLUME",
+                       help="use exactly this volume's grid: dimensions, spacing, origin and direction ('sample' "
+                            "for the bundled CT)")
+    where.add_argument("--spacing", nargs=3, type=float, metavar=("SX", "SY", "SZ"), help="voxel size in mm")
+    parser.add_argument("--padding", type=int, default=4, metavar="VOXELS",
+                        help="voxels of margin around the bounding box with --grid or --spacing (default 4)")
+    parser.add_argument("--band", default="10%", metavar="D|P%",
+                        help="width of the exact band: mm (e.g. 3) or per cent of the mesh's height (e.g. 5%%; "
+                             "default 10%%)")
+    parser.add_argument("--outside", choices=("clamp", "propagate"), default="clamp",
+                        help="outside the band: clamp to +-band (default) or propagate exact distances to the "
+                             "nearest triangles over the whole grid")
+    parser.add_argument("--inside", choices=("parity", "winding"), default="parity",
+                        help="sign by voxelisation: parity (default; closed meshes) or winding number (holes)")
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("mesh", help="surface mesh: STL, OBJ, PLY, VTP or OFF (also gzipped), LPS mm")
+    add_grid_arguments(parser)
+    parser.add_argument("-o", "--output", required=True, help="field file: .nii.gz, .nii, .nrrd, .mha or .vti")
+    parser.add_argument("--force", action="store_true", help="replace an existing output file")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def like_item(args):
+    """The ``--like`` volume as a scene item (None without ``--like``)."""
+    from ..io.meshes import is_mesh_path
+    from ..samples import resolve_path
+    from ..scene import VolumeItem
+    from .common import load_volume_argument
+
+    if not getattr(args, "like", None):
+        return None
+    path = resolve_path(args.like)
+    if is_mesh_path(path):
+        raise CommandError(f"{args.like}: --like takes a volume (its grid is copied), not a mesh")
+    return VolumeItem(path.name, volume=load_volume_argument(args, args.like))
+
+
+def grid_options(args) -> dict:
+    return {"grid": args.grid, "padding": args.padding, "band": args.band, "outside": args.outside,
+            "inside": args.inside, "spacing": " ".join(map(repr, args.spacing)) if args.spacing else None}
+
+
+def progress_printer(name: str, args):
+    def progress(fraction: float) -> None:
+        if not args.json and sys.stderr.isatty():
+            print(f"\r{name}: {100 * fraction:5.1f} %", end="", file=sys.stderr, flush=True)
+
+    return progress
+
+
+def run(args) -> int:
+    from ..io import WRITABLE_SUFFIXES, save_volume
+    from ..io.meshes import is_mesh_path, load_mesh
+    from ..operations import get_operation
+    from ..samples import resolve_path
+    from ..scene import MeshItem
+
+    output = refuse_existing(args.output, args.force)
+    if not str(output).lower().endswith(WRITABLE_SUFFIXES):
+        raise CommandError(f"{output}: a distance field is written as {', '.join(WRITABLE_SUFFIXES)}; choose one of "
+                           "these extensions")
+    mesh_path = resolve_path(args.mesh)
+    if not is_mesh_path(mesh_path):
+        raise CommandError(f"{args.mesh}: not a mesh file (STL, OBJ, PLY, VTP or OFF, optionally .gz); distance "
+                           "takes a surface mesh")
+    items = {"mesh": MeshItem.from_mesh(load_mesh(mesh_path)), "like": like_item(args)}
+    operation = get_operation("distance")
+    options = operation.resolve_options(grid_options(args))
+    result = operation.run(items, options, progress=progress_printer("distance", args))
+    if not args.json and sys.stderr.isatty():
+        print(file=sys.stderr)
+    written = save_volume(result.item.volume, output, overwrite=args.force)
+    report = {**result.report, "seconds": result.report["timing"], "output": str(written)}
+    report.pop("timing")
+    for warning in report["warnings"]:
+        print(f"voxelscope: warning: {warning}", file=sys.stderr)
+    if args.json:
+        print_json(report)
+        return 0
+    dims = " x ".join(map(str, report["dimensions"]))
+    s = report["seconds"]
+    low, high = report["value_range_mm"]
+    print(f"Distance field of {items['mesh'].name} ({report['triangles']:,} triangles) on {dims} voxels, band "
+          f"{report['band_mm']:.4g} mm, outside {report['outside']}: {s['total']:.2f} s (sign {s['sign']:.2f}, band "
+          f"{s['band']:.2f}, outside {s['outside']:.2f})")
+    print(f"Values {low:.4g} to {high:.4g} mm (negative inside); wrote {written}")
+    return 0
