@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -106,6 +107,53 @@ def tools_from_args(args) -> list:
         return tools_from_specs(getattr(args, "cut", None) or [], mode=getattr(args, "cut_mode", "remove"))
     except ValueError as exc:
         raise CommandError(str(exc)) from None
+
+
+def like_item(args):
+    """The ``--like`` volume as a scene item (None without ``--like``)."""
+    from ..io.meshes import is_mesh_path
+    from ..samples import resolve_path
+    from ..scene import VolumeItem
+
+    if not getattr(args, "like", None):
+        return None
+    path = resolve_path(args.like)
+    if is_mesh_path(path):
+        raise CommandError(f"{args.like}: --like takes a volume (its grid is copied), not a mesh")
+    return VolumeItem(path.name, volume=load_volume_argument(args, args.like))
+
+
+def mesh_item(text: str, command: str):
+    """The mesh argument of ``command`` as a scene item; a one-line error when it names no mesh file."""
+    from ..io.meshes import is_mesh_path, load_mesh
+    from ..samples import resolve_path
+    from ..scene import MeshItem
+
+    path = resolve_path(text)
+    if not is_mesh_path(path):
+        raise CommandError(f"{text}: not a mesh file (STL, OBJ, PLY, VTP or OFF, optionally .gz); {command} takes a "
+                           "surface mesh")
+    return MeshItem.from_mesh(load_mesh(path))
+
+
+def field_output(args, what: str) -> Path:
+    """``args.output`` checked as a new (or ``--force``) volume file; ``what`` names the content in the error."""
+    from ..io import WRITABLE_SUFFIXES
+
+    output = refuse_existing(args.output, args.force)
+    if not str(output).lower().endswith(WRITABLE_SUFFIXES):
+        raise CommandError(f"{output}: {what} is written as {', '.join(WRITABLE_SUFFIXES)}; choose one of these "
+                           "extensions")
+    return output
+
+
+def progress_printer(name: str, args):
+    """A progress callback printing ``name: NN.N %`` on a terminal (nothing with ``--json`` or when piped)."""
+    def progress(fraction: float) -> None:
+        if not args.json and sys.stderr.isatty():
+            print(f"\r{name}: {100 * fraction:5.1f} %", end="", file=sys.stderr, flush=True)
+
+    return progress
 
 
 def refuse_existing(path, force: bool) -> Path:

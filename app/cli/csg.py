@@ -13,7 +13,8 @@ import sys
 import time
 
 from .common import CommandError, print_json, refuse_existing
-from .distance import add_grid_arguments, grid_options, like_item, progress_printer
+from .common import like_item, progress_printer
+from .distance import add_grid_arguments, grid_options
 
 NAME = "csg"
 HELP = "union, intersection or difference of meshes, distance fields and volumes; writes a mesh or the field"

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import CommandError, print_json, refuse_existing
+from .common import field_output, like_item, mesh_item, print_json, progress_printer
 
 NAME = "distance"
 HELP = "a mesh's signed distance field (mm, negative inside), exact in a band, written as NIfTI/NRRD/MHA/VTI"
@@ -48,50 +48,17 @@ def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
-def like_item(args):
-    """The ``--like`` volume as a scene item (None without ``--like``)."""
-    from ..io.meshes import is_mesh_path
-    from ..samples import resolve_path
-    from ..scene import VolumeItem
-    from .common import load_volume_argument
-
-    if not getattr(args, "like", None):
-        return None
-    path = resolve_path(args.like)
-    if is_mesh_path(path):
-        raise CommandError(f"{args.like}: --like takes a volume (its grid is copied), not a mesh")
-    return VolumeItem(path.name, volume=load_volume_argument(args, args.like))
-
-
 def grid_options(args) -> dict:
     return {"grid": args.grid, "padding": args.padding, "band": args.band, "outside": args.outside,
             "inside": args.inside, "spacing": " ".join(map(repr, args.spacing)) if args.spacing else None}
 
 
-def progress_printer(name: str, args):
-    def progress(fraction: float) -> None:
-        if not args.json and sys.stderr.isatty():
-            print(f"\r{name}: {100 * fraction:5.1f} %", end="", file=sys.stderr, flush=True)
-
-    return progress
-
-
 def run(args) -> int:
-    from ..io import WRITABLE_SUFFIXES, save_volume
-    from ..io.meshes import is_mesh_path, load_mesh
+    from ..io import save_volume
     from ..operations import get_operation
-    from ..samples import resolve_path
-    from ..scene import MeshItem
 
-    output = refuse_existing(args.output, args.force)
-    if not str(output).lower().endswith(WRITABLE_SUFFIXES):
-        raise CommandError(f"{output}: a distance field is written as {', '.join(WRITABLE_SUFFIXES)}; choose one of "
-                           "these extensions")
-    mesh_path = resolve_path(args.mesh)
-    if not is_mesh_path(mesh_path):
-        raise CommandError(f"{args.mesh}: not a mesh file (STL, OBJ, PLY, VTP or OFF, optionally .gz); distance "
-                           "takes a surface mesh")
-    items = {"mesh": MeshItem.from_mesh(load_mesh(mesh_path)), "like": like_item(args)}
+    output = field_output(args, "a distance field")
+    items = {"mesh": mesh_item(args.mesh, "distance"), "like": like_item(args)}
     operation = get_operation("distance")
     options = operation.resolve_options(grid_options(args))
     result = operation.run(items, options, progress=progress_printer("distance", args))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import CommandError, print_json, refuse_existing
+from .common import field_output, like_item, mesh_item, print_json, progress_printer
 
 NAME = "voxelise"
 HELP = "turn a closed surface mesh into a mask volume (parity or winding number), written as NIfTI/NRRD/MHA/VTI"
@@ -39,40 +39,19 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..io import WRITABLE_SUFFIXES, save_volume
-    from ..io.meshes import is_mesh_path, load_mesh
+    from ..io import save_volume
     from ..operations import get_operation
-    from ..samples import resolve_path
-    from ..scene import MeshItem, VolumeItem
-    from .common import load_volume_argument
 
-    output = refuse_existing(args.output, args.force)
-    if not str(output).lower().endswith(WRITABLE_SUFFIXES):
-        raise CommandError(f"{output}: a mask is written as {', '.join(WRITABLE_SUFFIXES)}; choose one of these "
-                           "extensions")
-    mesh_path = resolve_path(args.mesh)
-    if not is_mesh_path(mesh_path):
-        raise CommandError(f"{args.mesh}: not a mesh file (STL, OBJ, PLY, VTP or OFF, optionally .gz); voxelise "
-                           "takes a surface mesh")
-    mesh = MeshItem.from_mesh(load_mesh(mesh_path))
-    items = {"mesh": mesh}
-    if args.like:
-        like_path = resolve_path(args.like)
-        if is_mesh_path(like_path):
-            raise CommandError(f"{args.like}: --like takes a volume (its grid is copied), not a mesh")
-        volume = load_volume_argument(args, args.like)
-        items["like"] = VolumeItem(like_path.name, volume=volume)
+    output = field_output(args, "a mask")
+    mesh = mesh_item(args.mesh, "voxelise")
+    items = {"mesh": mesh, "like": like_item(args)}
     operation = get_operation("voxelise")
     options = operation.resolve_options({
         "grid": args.grid, "padding": args.padding, "inside": args.inside,
         "spacing": " ".join(map(repr, args.spacing)) if args.spacing else None,
     })
 
-    def progress(fraction: float) -> None:
-        if not args.json and sys.stderr.isatty():
-            print(f"\rvoxelise: {100 * fraction:5.1f} %", end="", file=sys.stderr, flush=True)
-
-    result = operation.run(items, options, progress=progress)
+    result = operation.run(items, options, progress=progress_printer("voxelise", args))
     if not args.json and sys.stderr.isatty():
         print(file=sys.stderr)
     written = save_volume(result.item.volume, output, overwrite=args.force)
