@@ -22,7 +22,6 @@ Formats (what the readers of :mod:`app.io.meshes`, VTK, meshio, 3D Slicer and sl
 from __future__ import annotations
 
 import errno
-import json
 from pathlib import Path
 from typing import Any, Callable
 
@@ -30,7 +29,7 @@ import numpy as np
 
 from algorithms.common.progress import ProgressCallback, report
 
-from .io.atomic import atomic_outputs, check_companions
+from .io.atomic import atomic_outputs, check_companions, sidecar_json
 from .io.errors import VolumeWriteError
 
 MESH_SUFFIXES = (".stl", ".ply", ".obj", ".vtp")
@@ -146,18 +145,6 @@ def _write_vtp(path: Path, polydata, progress) -> None:
 _WRITERS: dict[str, Callable[..., int | None]] = {".stl": _write_stl, ".ply": _write_ply, ".obj": _write_obj}
 
 
-def _json_default(value):
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.floating):
-        return float(value)
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"cannot serialise {type(value).__name__}")
-
-
 def check_mesh_targets(path, *, sidecar: bool = True, overwrite: bool = False) -> Path:
     """Refuse an unknown format, an existing mesh or sidecar (unless ``overwrite``), a folder or a missing or
     read-only folder, before anything is computed or written. Returns ``path`` as a Path."""
@@ -181,7 +168,7 @@ def write_mesh_files(polydata, path, *, sidecar: dict[str, Any] | None = None, o
     path = check_mesh_targets(path, sidecar=sidecar is not None, overwrite=overwrite)
     suffix = path.suffix.lower()
     targets = [path] + ([sidecar_path(path)] if sidecar is not None else [])
-    text = json.dumps(sidecar, indent=2, default=_json_default) + "\n" if sidecar is not None else ""
+    text = sidecar_json(sidecar) if sidecar is not None else ""
     with atomic_outputs(targets, overwrite=overwrite) as temporaries:
         if suffix == ".vtp":
             _write_vtp(temporaries[0], polydata, progress)

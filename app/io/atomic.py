@@ -31,6 +31,27 @@ TEMP_PREFIX = ".voxelscope-tmp-"
 STALE_AFTER = 3600.0
 
 
+def sidecar_json(data) -> str:
+    """``data`` as indented JSON text with a final newline: NumPy scalars and arrays as numbers and lists, paths
+    as strings; anything else is a ``TypeError`` (a sidecar never holds a silently stringified object)."""
+    import json
+
+    import numpy as np
+
+    def default(value):
+        if isinstance(value, np.integer):
+            return int(value)
+        if isinstance(value, np.floating):
+            return float(value)
+        if isinstance(value, np.ndarray):
+            return value.tolist()
+        if isinstance(value, Path):
+            return str(value)
+        raise TypeError(f"cannot serialise {type(value).__name__}")
+
+    return json.dumps(data, indent=2, default=default) + "\n"
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)

@@ -8,14 +8,13 @@ meshio (a well-kept library for mesh formats) writes every format; VTU files car
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .atomic import atomic_outputs
+from .atomic import atomic_outputs, sidecar_json
 from .errors import FileExistsRefusal, VolumeWriteError
 
 #: File extension -> meshio format.
@@ -49,18 +48,6 @@ def check_targets(path, *, overwrite: bool, sidecar: bool = True) -> list[Path]:
     return targets
 
 
-def _json_default(value):
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.floating):
-        return float(value)
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"cannot serialise {type(value).__name__}")
-
-
 def write_tetmesh(mesh, path, *, overwrite: bool = False, sidecar: dict[str, Any] | None = None,
                   min_angles: np.ndarray | None = None) -> list[Path]:
     """Write a :class:`~algorithms.common.mesh.TetMesh` (and its sidecar) by the path's extension; returns the
@@ -81,7 +68,7 @@ def write_tetmesh(mesh, path, *, overwrite: bool = False, sidecar: dict[str, Any
         except Exception as exc:  # meshio raises many kinds; name the user's file
             raise VolumeWriteError(f"{path}: meshio could not write {file_format}: {exc}") from exc
         if sidecar is not None:
-            temporaries[1].write_text(json.dumps(sidecar, indent=2, default=_json_default) + "\n")
+            temporaries[1].write_text(sidecar_json(sidecar))
     return targets
 
 
