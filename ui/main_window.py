@@ -71,9 +71,6 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
         self._build_cutaways()  # window_cutaways: cut-away tools, their widgets and list (issue 15)
         self._build_menus()
         self.setAcceptDrops(True)
-        from .window_pyramid import PyramidRefiner
-
-        self.pyramid = PyramidRefiner(self)  # refines a large pyramid's region in view when zoomed (issue 19)
 
         # Model -> window
         self.model.item_changed.connect(self._item_changed)

@@ -144,13 +144,6 @@ class RenderView(QFrame):
         self.pipeline.set_inputs(inputs, mode, options)
         self._mode_shown()
 
-    def replace_item(self, item) -> None:
-        """Show another item in the same mode with the same inputs (a finer region of a pyramid, issue 19)."""
-        from dataclasses import replace
-
-        if self.pipeline.inputs is not None:
-            self.pipeline.set_inputs(replace(self.pipeline.inputs, item=item))
-
     def set_mode(self, mode: str, options: dict[str, Any] | None = None) -> None:
         self.mode_box.set_current(mode)
         self.pipeline.set_mode(mode, options)

@@ -9,8 +9,7 @@ Cases
 
 Every method extracts the same surface from the same samples. VTK runs with ComputeScalars off (and
 ComputeGradients off) and ComputeNormals as stated; ``vtkFlyingEdges3D`` is SMP-parallel and runs with VTK's
-Sequential and STDThread back ends. Ours runs its numba kernels (``nogil``) on ``numba.get_num_threads()``
-threads, the caller and helper threads taking layers from one queue per pass (``numba_threads`` in the JSON).
+Sequential and STDThread back ends. Ours uses numba's threads (``numba_threads`` in the JSON).
 
 Measured
 --------

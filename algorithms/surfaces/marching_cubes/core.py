@@ -37,11 +37,8 @@ docs/references.md), section "Techniek 1: Marching cubes".
 
 from __future__ import annotations
 
-import time
-from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass
-from threading import Lock
 from typing import ClassVar
 
 import numba
@@ -109,51 +106,14 @@ def _inside_threshold(dtype: np.dtype, iso: float):
     return np.float64(iso)
 
 
-#: Below this many samples the kernels run on one thread. Handing a pass's queue to a helper thread costs tens of
-#: microseconds (a thread-pool submit), and the caller never waits for a helper that has not started, so every
-#: volume that is worth meshing is threaded.
+#: Below this many samples the kernels run on one thread. Waking the second thread costs a few microseconds on a
+#: quiet machine (measured: 4 us per parallel region), so every volume that is worth meshing is threaded.
 PARALLEL_MIN_SAMPLES = 4096
-
-
-_helpers: ThreadPoolExecutor | None = None
-_helpers_lock = Lock()
-
-
-def _helper_pool() -> ThreadPoolExecutor:
-    global _helpers
-    with _helpers_lock:
-        if _helpers is None:
-            _helpers = ThreadPoolExecutor(max_workers=max(1, numba.config.NUMBA_NUM_THREADS - 1),
-                                          thread_name_prefix="marching-cubes")
-        return _helpers
-
-
-def _shared(kernel, *arguments) -> None:
-    """Run a queue worker of :mod:`.kernels` (``kernel(queue, *arguments)``) on ``numba.get_num_threads()`` threads:
-    the calling thread and helpers, all taking items from one fresh queue until it is empty.
-
-    The caller then waits only for helpers that are inside an item: a helper that starts later finds the queue
-    empty and touches nothing, so a helper the operating system has not scheduled yet (a loaded machine) costs
-    nothing. The kernels release the GIL.
-    """
-    queue = np.zeros(2, dtype=np.int64)
-    helpers = numba.get_num_threads() - 1
-    futures = [_helper_pool().submit(kernel, queue, *arguments) for _ in range(helpers)]
-    try:
-        kernel(queue, *arguments)
-    finally:
-        kernels.close_queue(queue)  # a no-op unless the caller failed before the queue was empty
-        while kernels.workers_inside(queue):
-            time.sleep(0)
-    for future in futures:
-        if future.done() and future.exception() is not None:
-            raise future.exception()
 
 
 @contextmanager
 def _numba_threads(count: int):
-    """Run the kernels on ``count`` threads inside the block: numba's thread count, which :func:`_shared` follows
-    (the setting is per calling thread)."""
+    """Run numba's parallel kernels on ``count`` threads inside the block (numba's setting is per thread)."""
     previous = numba.get_num_threads()
     numba.set_num_threads(count)
     try:
@@ -188,9 +148,10 @@ def _count(array, threshold, progress, share: float = 0.3) -> _Counts:
                      np.empty((nz - 1, ny - 1), dtype=np.int64))
     flags = np.zeros(nz - 1, dtype=np.bool_)
     chunks = np.linspace(0, nz - 1, rounds + 1).astype(np.int64)
+    parts = numba.get_num_threads()
     for n in range(rounds):
-        _shared(kernels.count_layers, array, threshold, chunks[n], chunks[n + 1], kernels.PAIR_CASE,
-                kernels.TRIANGLE_COUNT, counts.spans, counts.edges, counts.triangles, flags)
+        kernels.count_layers(array, threshold, chunks[n], chunks[n + 1], parts, kernels.PAIR_CASE,
+                             kernels.TRIANGLE_COUNT, counts.spans, counts.edges, counts.triangles, flags)
         report(progress, share * (n + 1) / rounds)
     if flags.any():
         raise ValueError("the volume contains NaN values; marching cubes needs a value at every sample")
@@ -218,13 +179,16 @@ def _extract(array, iso, spacing, origin, with_normals, progress):
     normals = np.empty((vertex_total if with_normals else 0, 3), dtype=np.float32)
     on_sample = np.empty(vertex_total, dtype=np.int64)
     triangles = np.empty((triangle_total, 3), dtype=np.int64)
-    # One layer per work item: the threads take them one at a time, so no estimate of each layer's cost is needed.
+    # Work per layer: the cells scanned (span lengths) and what is written (vertices, triangles).
+    lengths = (counts.spans[:, :, 1] - counts.spans[:, :, 0] + 1).clip(min=0).sum(axis=1)
+    work = lengths + 4 * counts.edges[:-1].sum(axis=(1, 2)) + 2 * counts.triangles.sum(axis=1) + 1
+    threads = numba.get_num_threads()
     rounds = int(np.clip(array.size // 8_000_000, 1, 8))
-    chunks = np.linspace(0, nz - 1, rounds + 1).astype(np.int64)
+    bounds = _slab_bounds(work, threads * rounds)
     for n in range(rounds):
-        _shared(kernels.fill_layers, array, threshold, iso, np.arange(chunks[n], chunks[n + 1] + 1), counts.spans,
-                vertex_first, triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES, kernels.TRIANGLE_COUNT, spacing,
-                origin, points, normals, on_sample, triangles)
+        kernels.fill_layers(array, threshold, iso, bounds[n * threads:(n + 1) * threads + 1], counts.spans,
+                            vertex_first, triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES,
+                            kernels.TRIANGLE_COUNT, spacing, origin, points, normals, on_sample, triangles)
         report(progress, 0.3 + 0.65 * (n + 1) / rounds)
     del counts, vertex_first, triangle_first
     n_points, n_triangles = kernels.merge_on_samples(points, normals, on_sample, triangles)

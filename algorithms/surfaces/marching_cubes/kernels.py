@@ -1,6 +1,6 @@
 """numba kernels of marching cubes, and Bourke's tables in the form they use (see :mod:`.core` for the method).
 
-Implementation: two passes over the rows of cells, both parallel over layers of cells (or slabs of consecutive
+Implementation: two passes over the rows of cells, both parallel over layers of cells (slabs of consecutive
 ``k``); no Python loop per cell, no inside mask of the whole volume, no hashing of edges.
 
 1. :func:`count_layers`: classify the samples of each row of cells ``(j, k)`` against the isovalue, note the span
@@ -16,13 +16,6 @@ Implementation: two passes over the rows of cells, both parallel over layers of 
    the edge rows it owns (position, and the normal from central differences when asked) while the samples are in
    cache. A vertex that falls exactly on a sample is flagged for :func:`merge_on_samples`.
 
-Threads: each pass is a queue of work items (layers, or slabs of layers) in a small int64 array ``queue``:
-``queue[0]`` is the next item, ``queue[1]`` the number of workers inside an item, both changed atomically
-(:func:`_take`). The kernels are ``nogil`` workers that take items until the queue is empty; :func:`.core._shared`
-runs one on the calling thread and the others on helper threads. A thread that finishes early, or gets more of a
-loaded machine, takes the next item, and the caller never waits for a helper that has not started (it would find
-the queue empty): it waits only for helpers inside an item.
-
 Work memory besides the output: the spans and the per-row counts (a few bytes per row of samples), and a row of
 column codes per thread. The kernels take a block of samples and its place in the volume (``origin``) only, so a
 block of a larger volume can be meshed on its own.
@@ -31,8 +24,7 @@ block of a larger volume can be meshed on its own.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, types
-from numba.extending import intrinsic
+from numba import njit, prange
 
 from . import tables
 
@@ -100,46 +92,6 @@ TRIANGLE_COUNT = _triangle_counts()
 # ``(j, k)``; ``vertex_first`` has the same layout and holds the id of the first of them.
 
 
-@intrinsic
-def _take(typingctx, counter, amount):
-    """Atomically add ``amount`` to ``counter[0]`` (an int64 array) and return its previous value (sequentially
-    consistent: a worker's writes before it leaves an item are seen by whoever sees the item left)."""
-    if not (isinstance(counter, types.Array) and counter.dtype == types.int64 and isinstance(amount, types.Integer)):
-        return None
-
-    def codegen(context, builder, signature, args):
-        array = context.make_array(signature.args[0])(context, builder, args[0])
-        value = context.cast(builder, args[1], signature.args[1], types.int64)
-        return builder.atomic_rmw("add", array.data, value, "seq_cst")
-
-    return types.int64(counter, amount), codegen
-
-
-@njit(cache=True, nogil=True)
-def workers_inside(queue):
-    """How many workers are inside an item of ``queue`` (an atomic read of ``queue[1]``)."""
-    return _take(queue[1:], 0)
-
-
-@njit(cache=True, nogil=True)
-def close_queue(queue):
-    """Leave no item to take from ``queue`` (workers inside an item finish it)."""
-    _take(queue, 1 << 62)
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _enter(queue):
-    """Take the next item of ``queue`` (its number, counted from 0) and count the worker in; pair with
-    :func:`_leave`, also when the number is past the last item."""
-    _take(queue[1:], 1)
-    return _take(queue, 1)
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _leave(queue):
-    _take(queue[1:], -1)
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _owned(j, k, ny, nz):
     """Which edge rows the row of cells ``(j, k)`` owns besides its own x, y and z rows at ``(j, k)``:
@@ -176,25 +128,22 @@ def _row_has_nan(row):
     return undefined
 
 
-@njit(cache=True, nogil=True)
-def count_layers(queue, volume, threshold, start, stop, pair_case, triangle_count, spans, edge_counts,
+@njit(cache=True, nogil=True, parallel=True)
+def count_layers(volume, threshold, start, stop, parts, pair_case, triangle_count, spans, edge_counts,
                  triangle_counts, flags):
-    """Spans, owned cut-edge counts and triangle counts of the rows of cells of layers ``start..stop-1``, one layer
-    per item of ``queue`` (a worker; run it with :func:`.core._shared`).
+    """Spans, owned cut-edge counts and triangle counts of the rows of cells of layers ``start..stop-1``.
 
-    ``flags[k]`` is set when a sample of slice k is NaN (the last layer also checks the last slice).
-    ``edge_counts`` must start at zero; ``triangle_counts`` has shape ``(nz - 1, ny - 1)``.
+    The layers are dealt out to ``parts`` workers in turn (layer ``start + p``, ``start + p + parts``, ...), so
+    workers get about the same mix of empty and busy layers whatever the object's shape. ``flags[k]`` is set when a
+    sample of slice k is NaN (the last layer also checks the last slice). ``edge_counts`` must start at zero;
+    ``triangle_counts`` has shape ``(nz - 1, ny - 1)``.
     """
     nz, ny, nx = volume.shape
-    codes = np.empty(nx, dtype=np.uint8)
-    while True:
-        k = start + _enter(queue)
-        if k >= stop:
-            _leave(queue)
-            return
-        _count_layer(volume, threshold, k, pair_case, triangle_count, spans, edge_counts, triangle_counts, flags,
-                     codes)
-        _leave(queue)
+    for part in prange(parts):
+        codes = np.empty(nx, dtype=np.uint8)
+        for k in range(start + part, stop, parts):
+            _count_layer(volume, threshold, k, pair_case, triangle_count, spans, edge_counts, triangle_counts,
+                         flags, codes)
 
 
 @njit(cache=True, nogil=True)
@@ -390,22 +339,17 @@ def _fill_row(volume, threshold, iso, k, j, low, high, vertex_first, first_trian
         previous = code
 
 
-@njit(cache=True, nogil=True)
-def fill_layers(queue, volume, threshold, iso, bounds, spans, vertex_first, triangle_first, pair_case,
-                triangle_table, triangle_count, spacing, origin, points, normals, on_sample, triangles):
-    """Triangles and owned vertices of the layers ``bounds[0]..bounds[-1]-1``, one slab ``bounds[s]..bounds[s+1]-1``
-    per item of ``queue`` (a worker; run it with :func:`.core._shared`). Any split gives the same output.
+@njit(cache=True, nogil=True, parallel=True)
+def fill_layers(volume, threshold, iso, bounds, spans, vertex_first, triangle_first, pair_case, triangle_table,
+                triangle_count, spacing, origin, points, normals, on_sample, triangles):
+    """Triangles and owned vertices of the layers ``bounds[s]..bounds[s+1]-1``, one slab ``s`` per iteration.
 
     ``triangle_table`` holds id slots (:data:`TRIANGLES`); ``normals`` with zero rows skips the normals.
     """
     nz, ny, nx = volume.shape
-    codes = np.empty(nx, dtype=np.uint8)
-    ids = np.zeros(12, dtype=np.int64)
-    while True:
-        slab = _enter(queue)
-        if slab >= bounds.shape[0] - 1:
-            _leave(queue)
-            return
+    for slab in prange(bounds.shape[0] - 1):
+        codes = np.empty(nx, dtype=np.uint8)
+        ids = np.zeros(12, dtype=np.int64)
         for k in range(bounds[slab], bounds[slab + 1]):
             for j in range(ny - 1):
                 low = spans[k, j, 0]
@@ -414,7 +358,6 @@ def fill_layers(queue, volume, threshold, iso, bounds, spans, vertex_first, tria
                     _fill_row(volume, threshold, iso, k, j, low, high, vertex_first, triangle_first[k, j],
                               pair_case, triangle_table, triangle_count, spacing, origin, codes, ids, points,
                               normals, on_sample, triangles)
-        _leave(queue)
 
 
 @njit(cache=True, nogil=True)

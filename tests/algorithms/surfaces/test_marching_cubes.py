@@ -439,9 +439,9 @@ def test_slab_partition_does_not_change_the_mesh():
         points = np.full((vertices, 3), np.nan, dtype=np.float32)
         on_sample = np.full(vertices, -7, dtype=np.int64)
         triangles = np.full((triangle_total, 3), -1, dtype=np.int64)
-        core._shared(kernels.fill_layers, field, threshold, 500.5, np.array(bounds, dtype=np.int64), counts.spans,
-                     vertex_first, triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES, kernels.TRIANGLE_COUNT,
-                     np.ones(3), np.zeros(3), points, np.empty((0, 3), np.float32), on_sample, triangles)
+        kernels.fill_layers(field, threshold, 500.5, np.array(bounds, dtype=np.int64), counts.spans, vertex_first,
+                            triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES, kernels.TRIANGLE_COUNT,
+                            np.ones(3), np.zeros(3), points, np.empty((0, 3), np.float32), on_sample, triangles)
         results.append((points, on_sample, triangles))
     reference_points, reference_on_sample, reference_triangles = results[0]
     assert not np.isnan(reference_points).any() and reference_on_sample.min() == -1  # every vertex placed once
