@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from .io.atomic import numpy_json
 from .measurements import Measurement
 from .transfer import Shading, TransferFunction
 
@@ -148,10 +149,7 @@ def read_session(path) -> dict[str, Any]:
 
 
 def _json_default(value):
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.floating):
-        return float(value)
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"cannot store a {type(value).__name__} in a session")
+    try:
+        return numpy_json(value)
+    except TypeError:
+        raise TypeError(f"cannot store a {type(value).__name__} in a session") from None

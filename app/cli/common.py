@@ -169,15 +169,12 @@ def print_json(data: dict[str, Any]) -> None:
 
 
 def _json_default(value):
-    import numpy as np
+    from ..io.atomic import numpy_json
 
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.floating):
-        return float(value)
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    return str(value)
+    try:
+        return numpy_json(value)
+    except TypeError:
+        return str(value)
 
 
 # --------------------------------------------------------------------------------------------------------------

@@ -36,20 +36,26 @@ def sidecar_json(data) -> str:
     as strings; anything else is a ``TypeError`` (a sidecar never holds a silently stringified object)."""
     import json
 
-    import numpy as np
-
     def default(value):
-        if isinstance(value, np.integer):
-            return int(value)
-        if isinstance(value, np.floating):
-            return float(value)
-        if isinstance(value, np.ndarray):
-            return value.tolist()
         if isinstance(value, Path):
             return str(value)
-        raise TypeError(f"cannot serialise {type(value).__name__}")
+        return numpy_json(value)
 
     return json.dumps(data, indent=2, default=default) + "\n"
+
+
+def numpy_json(value):
+    """A NumPy integer, float or array as the int, float or list JSON stores (a ``json.dumps`` ``default``);
+    anything else is a ``TypeError``."""
+    import numpy as np
+
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"cannot serialise {type(value).__name__}")
 
 
 def _umask() -> int:
