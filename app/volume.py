@@ -115,6 +115,13 @@ class Volume:
             self._range = (float(data.min()), float(data.max()))
         return self._range
 
+    def assume_value_range(self, low: float, high: float) -> None:
+        """Use ``(low, high)`` as the value range (a region of a larger volume keeps the whole volume's range, so
+        transfer functions map values to the same colours)."""
+        if not (np.isfinite(low) and np.isfinite(high) and low <= high):
+            raise ValueError(f"a value range needs finite low <= high, got {low!r}, {high!r}")
+        self._range = (float(low), float(high))
+
     def percentile_range(self, low: float = 0.5, high: float = 99.5, *, max_samples: int = 1_000_000):
         """Robust value range: the ``low`` and ``high`` percentiles (a regular subsample of large volumes; cached)."""
         key = (float(low), float(high))

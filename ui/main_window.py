@@ -71,6 +71,9 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
         self._build_cutaways()  # window_cutaways: cut-away tools, their widgets and list (issue 15)
         self._build_menus()
         self.setAcceptDrops(True)
+        from .window_pyramid import PyramidRefiner
+
+        self.pyramid = PyramidRefiner(self)  # refines a large pyramid's region in view when zoomed (issue 19)
 
         # Model -> window
         self.model.item_changed.connect(self._item_changed)
@@ -422,6 +425,7 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
         self.settings.setValue("state", self.saveState())
         self.settings.setValue("modes", ",".join(self.model.view_modes))
         self.settings.sync()
+        self.pyramid.shutdown()  # before the tasks: a region read must not reach the views being shut down
         self.tasks.cancel_all()
         self.tasks.wait(10000)
         for view in self.views:

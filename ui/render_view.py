@@ -63,6 +63,7 @@ class RenderView(QFrame):
     def __init__(self, index: int, tasks: TaskRunner, parent=None) -> None:
         super().__init__(parent)
         self.index = index
+        self._shut_down = False  # after shutdown() nothing is shown or rendered any more
         self.setFrameShape(QFrame.StyledPanel)
         self.setObjectName(f"view{index}")
 
@@ -144,6 +145,13 @@ class RenderView(QFrame):
         self.pipeline.set_inputs(inputs, mode, options)
         self._mode_shown()
 
+    def replace_item(self, item) -> None:
+        """Show another item in the same mode with the same inputs (a finer region of a pyramid, issue 19)."""
+        from dataclasses import replace
+
+        if self.pipeline.inputs is not None and not self._shut_down:
+            self.pipeline.set_inputs(replace(self.pipeline.inputs, item=item))
+
     def set_mode(self, mode: str, options: dict[str, Any] | None = None) -> None:
         self.mode_box.set_current(mode)
         self.pipeline.set_mode(mode, options)
@@ -185,6 +193,7 @@ class RenderView(QFrame):
         return self.pipeline.surface()
 
     def shutdown(self) -> None:
+        self._shut_down = True
         self._idle.stop()
         self.pipeline.shutdown()
         self.plotter.close()

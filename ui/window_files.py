@@ -12,6 +12,7 @@ from qtpy.QtWidgets import QFileDialog, QMessageBox
 from app.io import READABLE_SUFFIXES, is_zarr_path, list_series
 from app.io.meshes import MESH_SUFFIXES_READ
 from app.provenance import series_choices
+from app.pyramid_view import load_pyramid_for_view
 from app.samples import sample_path
 from app.volume import Volume
 from app.workbench import load_for_workbench
@@ -56,7 +57,8 @@ class FileActions:
             task.failed.connect(lambda exc: self._load_error(path, exc))
             self.tasks.start(task)
             return
-        task = Task(f"Loading {path.name}", load_for_workbench, path, series_uid=series_uid, labels=labels)
+        loader = load_pyramid_for_view if is_zarr_path(path) else load_for_workbench  # coarse level (issue 19)
+        task = Task(f"Loading {path.name}", loader, path, series_uid=series_uid, labels=labels)
         task.finished.connect(lambda volume: self._loaded(path, volume))
         task.failed.connect(lambda exc: self._load_error(path, exc))
         self.tasks.start(task)

@@ -28,8 +28,18 @@ Coordinates: :class:`ToolSet` matrices take a point of the *renderer's frame* (t
 ``(i, j, k)`` at ``(i sx, j sy, k sz)``) to the tool's frame (mm; for grid tools straight to the grid's continuous
 index ``(i, j, k)``). Kernels take points in that frame, in mm, ``(x, y, z)`` order. Arrays are ``(nz, ny, nx)``.
 
-Numba: the tool set is passed to kernels as the tuple :meth:`ToolSet.packed` (kinds, modes, matrices, parameters,
-grid offsets, grid shapes, grid values, settings); an empty tool set costs one comparison per sample.
+Leap (the selection's own empty-space skipping): inside the removed region a ray marcher may jump over samples that
+are surely removed. :func:`leap_at` gives, per tool that removes the sample, a radius (renderer mm) within which every
+point is still fully removed, and takes the largest: for a shape, its signed distance (less half the transition
+width for ``distance`` evaluation); for a grid tool, the conservative depth table :func:`grid_leap_depths`, made once
+per tool (the grid moves with its matrix, so a depth in the tool's own index frame stays valid when it moves). Each
+is divided by the largest singular value of the tool's matrix (renderer mm -> tool units), so it stays
+conservative for any affine placement.
+
+Numba: the tool set is passed to kernels as the tuple :meth:`ToolSet.packed` (kinds, modes, matrices, parameters
+with the leap scales in their last column, grid offsets, grid shapes, grid values followed by the grid leap depths,
+settings); an empty tool set costs one comparison per sample. (The leap data rides in the existing arrays rather
+than in more tuple members: every array handed to a kernel call is reference-counted.)
 """
 
 from __future__ import annotations
@@ -59,10 +69,12 @@ class ToolSet:
 
     ``kinds``, ``modes`` ``(n,)`` int64; ``matrices`` ``(n, 4, 4)`` float64 (renderer frame mm -> tool frame mm, or
     grid index for grid tools); ``params`` ``(n, 4)`` float64 (box: half sizes; sphere: radius; cylinder: radius and
-    half height; grid: the mm per index unit, for the gradient); ``grid_offsets`` ``(n,)`` and ``grid_shapes`` ``(n, 3)``
-    (nx, ny, nz) int64 locate each grid tool's values in the flat float32 ``grid_values``. ``evaluation`` is
+    half height; grid: the mm per index unit, for the gradient); ``grid_offsets`` ``(n,)`` and ``grid_shapes``
+    ``(n, 3)`` (nx, ny, nz) int64 locate each grid tool's values in the flat float32 ``grid_values``. ``evaluation`` is
     ``"binary"`` or ``"distance"``, ``width`` the distance evaluation's transition (mm), ``band`` the depth (mm) within
     which cut samples take the tool's normal, ``cut_normals`` False on the cheap path while a tool moves.
+    ``grid_leaps`` (laid out as ``grid_values``) holds the grid tools' leap depth tables (:func:`grid_leap_depths`)
+    made for ``leap_key = (evaluation, width)``; ``leap`` False turns the leap off (every sample is tested).
     """
 
     kinds: np.ndarray
@@ -76,6 +88,9 @@ class ToolSet:
     width: float = 1.0
     band: float = 1.5
     cut_normals: bool = True
+    grid_leaps: np.ndarray | None = None
+    leap_key: tuple = ()
+    leap: bool = True
 
     def __post_init__(self) -> None:
         n = len(self.kinds)
@@ -90,17 +105,12 @@ class ToolSet:
             raise ValueError("tool matrices and parameters must be finite")
         if not (self.width > 0 and self.band >= 0):
             raise ValueError(f"tool width must be positive and band non-negative (mm), got {self.width}, {self.band}")
+        if self.grid_leaps is not None and np.shape(self.grid_leaps) != np.shape(self.grid_values):
+            raise ValueError(f"tool set: grid_leaps must have the shape of grid_values {np.shape(self.grid_values)}, "
+                             f"got {np.shape(self.grid_leaps)}")
 
     def __len__(self) -> int:
         return len(self.kinds)
-
-    def exact_distance(self) -> bool:
-        """True when ``g`` is a true signed distance (mm): no grid tools and every matrix rigid."""
-        if np.any(self.kinds == GRID):
-            return False
-        rotations = self.matrices[:, :3, :3]
-        identity = np.broadcast_to(np.eye(3), rotations.shape)
-        return bool(np.allclose(np.transpose(rotations, (0, 2, 1)) @ rotations, identity, rtol=0.0, atol=1e-9))
 
     @classmethod
     def empty(cls) -> "ToolSet":
@@ -121,21 +131,45 @@ class ToolSet:
     def key(self) -> tuple:
         """A hashable summary (changes when any tool or setting changes; grid values by identity)."""
         return (self.kinds.tobytes(), self.modes.tobytes(), self.matrices.tobytes(), self.params.tobytes(),
-                id(self.grid_values), self.evaluation, self.width, self.band, self.cut_normals)
+                id(self.grid_values), self.evaluation, self.width, self.band, self.cut_normals, id(self.grid_leaps),
+                self.leap_key, self.leap)
+
+    def grid_leaps_valid(self) -> bool:
+        """True when the grid tools' leap depths were made for this evaluation: any depths serve ``binary`` (they
+        were made for ``g < 0`` or the stricter ``g <= -width/2``); ``distance`` needs depths made for its width."""
+        if self.grid_leaps is None:
+            return False
+        return self.evaluation == "binary" or self.leap_key == (self.evaluation, self.width)
+
+    def leap_scales(self) -> np.ndarray:
+        """Per tool, renderer mm per tool unit of distance (``1 / sigma_max`` of the matrix's linear part: a step
+        of ``d`` tool units is at least ``d / sigma_max`` mm in the renderer's frame); 0 where the tool may not leap
+        (leaping off, or a grid tool without valid depths)."""
+        n = len(self.kinds)
+        if n == 0 or not self.leap:
+            return np.zeros(n)
+        largest = np.linalg.svd(self.matrices[:, :3, :3], compute_uv=False)[:, 0]
+        scales = np.where(largest > 0, 1.0 / np.maximum(largest, 1e-300), 0.0)
+        if not self.grid_leaps_valid():
+            scales[self.kinds == GRID] = 0.0
+        return scales
 
     def packed(self) -> tuple:
         """The tuple the kernels take: ``(kinds, modes, matrices, params, offsets, shapes, values, settings)`` with
-        ``settings = (evaluation code, width mm, band mm, cut normals 0/1, exact 0/1)`` float64; ``exact``: every
-        tool is a shape (no grid) placed rigidly, so ``g`` is a true signed distance and :func:`leap_distance` may
-        skip removed samples."""
+        ``params[:, 3]`` the :meth:`leap_scales`, ``values`` the grid values followed by the grid tools' depth tables
+        (laid out alike, from ``settings[5]`` on) and ``settings = (evaluation code, width mm, band mm, cut normals
+        0/1, leap 0/1, where the depth tables start)`` float64."""
+        leaps = self.grid_leaps if self.grid_leaps is not None else np.zeros_like(self.grid_values)
         settings = np.array([EVALUATIONS.index(self.evaluation), self.width, self.band, float(self.cut_normals),
-                             float(self.exact_distance())])
+                             float(self.leap), float(np.size(self.grid_values))])
+        params = np.array(self.params, dtype=np.float64)
+        if len(params):
+            params[:, 3] = self.leap_scales()
+        values = np.concatenate([np.ravel(self.grid_values), np.ravel(leaps)]).astype(np.float32, copy=False)
         return (np.ascontiguousarray(self.kinds, dtype=np.int64), np.ascontiguousarray(self.modes, dtype=np.int64),
                 np.ascontiguousarray(self.matrices, dtype=np.float64),
-                np.ascontiguousarray(self.params, dtype=np.float64),
-                np.ascontiguousarray(self.grid_offsets, dtype=np.int64),
-                np.ascontiguousarray(self.grid_shapes, dtype=np.int64),
-                np.ascontiguousarray(self.grid_values, dtype=np.float32), settings)
+                np.ascontiguousarray(params), np.ascontiguousarray(self.grid_offsets, dtype=np.int64),
+                np.ascontiguousarray(self.grid_shapes, dtype=np.int64), values, settings)
 
 
 def packed_tools(tools: "ToolSet | None") -> tuple:
@@ -240,15 +274,95 @@ def tool_count(tools):
 
 
 @njit(cache=True, nogil=True)
-def leap_distance(tools, g):
-    """How far (mm) from a sample with removal value ``g`` every point is still fully removed: ``-g`` (binary) or
-    ``-g - width/2`` (distance), when ``g`` is a true distance (shapes placed rigidly: 1-Lipschitz, and leaving the
-    union of removals means leaving the tool that gives the minimum); 0 otherwise. Ray marchers leap that far."""
+def leap_at(tools, x, y, z):
+    """How far (renderer mm) from ``(x, y, z)`` every point is still fully removed (0: no leap): the largest, over
+    the tools that remove the point, of the tool's conservative depth (shapes: ``-r``, less ``width/2`` for the
+    distance evaluation; grid tools: their depth table, or for a ``keep`` grid tool outside its grid the distance to
+    the grid's box) times the tool's leap scale. Ray marchers leap that far (module notes)."""
     settings = tools[7]
-    if settings[4] <= 0.0 or g >= 0.0:
+    if settings[4] <= 0.0:
         return 0.0
-    depth = -g if settings[0] == BINARY else -g - 0.5 * settings[1]
-    return max(depth, 0.0)
+    kinds, modes, matrices, params, offsets, shapes, values = (tools[0], tools[1], tools[2], tools[3], tools[4],
+                                                               tools[5], tools[6])
+    base = int(settings[5])  # the depth tables follow the grid values
+    margin = 0.0 if settings[0] == BINARY else 0.5 * settings[1]
+    best = 0.0
+    for t in range(kinds.shape[0]):
+        s = params[t, 3]
+        if s <= 0.0:
+            continue
+        m = matrices[t]
+        lx = m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]
+        ly = m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]
+        lz = m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3]
+        depth = 0.0
+        if kinds[t] == GRID:
+            nx, ny, nz = shapes[t, 0], shapes[t, 1], shapes[t, 2]
+            if 0.0 <= lx <= nx - 1 and 0.0 <= ly <= ny - 1 and 0.0 <= lz <= nz - 1:
+                if nx >= 2 and ny >= 2 and nz >= 2:
+                    i0 = min(int(lx), nx - 2)
+                    j0 = min(int(ly), ny - 2)
+                    k0 = min(int(lz), nz - 2)
+                    depth = values[base + offsets[t] + (k0 * ny + j0) * nx + i0]
+            elif modes[t] == KEEP:
+                # Outside a keep tool's grid everything is removed: as far as the grid's box.
+                qx = max(0.0 - lx, 0.0, lx - (nx - 1))
+                qy = max(0.0 - ly, 0.0, ly - (ny - 1))
+                qz = max(0.0 - lz, 0.0, lz - (nz - 1))
+                depth = math.sqrt(qx * qx + qy * qy + qz * qz)
+        else:
+            f = _shape_distance(kinds[t], params[t], lx, ly, lz, values, offsets[t], shapes[t])
+            r = f if modes[t] == REMOVE else -f
+            depth = -r - margin
+        if depth * s > best:
+            best = depth * s
+    return best
+
+
+def grid_leap_depths(values, mode: str = "remove", evaluation: str = "binary", width: float = 1.0) -> np.ndarray:
+    """The leap depth table of a grid tool (float32, the shape ``(nz, ny, nx)`` of ``values``; made once per tool).
+
+    Entry ``[k, j, i]`` belongs to the trilinear cell whose lower corner is voxel ``(i, j, k)`` (the last layer of
+    each axis is unused, 0). A cell is *fully removed* when all eight corners are (``r = values`` for ``remove``,
+    ``-values`` for ``keep``; ``r < 0`` for ``binary``, ``r <= -width/2`` for ``distance``): trilinear
+    interpolation then stays removed everywhere in it. The entry is a radius (index units) around any point of the
+    cell inside which every point lies in fully removed cells: the larger of the Euclidean distance transform
+    between cell centres less ``sqrt(3)`` and the chessboard distance less 1 (both conservative), 0 for cells that
+    are not fully removed. Outside the grid nothing is removed by a ``remove`` tool (so the grid is padded with
+    cells that are not), everything by a ``keep`` tool.
+    """
+    from scipy import ndimage
+
+    array = np.asarray(values, dtype=np.float32)
+    if array.ndim != 3:
+        raise ValueError(f"a grid tool's values must be a 3-D array (nz, ny, nx), got shape {array.shape}")
+    if mode not in MODES or evaluation not in EVALUATIONS:
+        raise ValueError(f"grid leap depths: mode {mode!r} / evaluation {evaluation!r} unknown")
+    out = np.zeros(array.shape, dtype=np.float32)
+    if min(array.shape) < 2:
+        return out
+    r = array if mode == "remove" else -array
+    corner = r < 0 if evaluation == "binary" else r <= -0.5 * float(width)
+    cells = corner[:-1, :-1, :-1].copy()
+    for dk in (0, 1):
+        for dj in (0, 1):
+            for di in (0, 1):
+                cells &= corner[dk:dk + cells.shape[0], dj:dj + cells.shape[1], di:di + cells.shape[2]]
+    if not cells.any():
+        return out
+    if mode == "remove":
+        padded = np.pad(cells, 1, constant_values=False)
+        inner = (slice(1, -1),) * 3
+    else:
+        padded, inner = cells, (slice(None),) * 3
+    if padded.all():  # a keep tool whose every cell is removed: nothing inside limits the leap
+        depth = np.full(cells.shape, float(max(cells.shape)), dtype=np.float64)
+    else:
+        euclidean = ndimage.distance_transform_edt(padded)[inner] - math.sqrt(3.0)
+        chessboard = ndimage.distance_transform_cdt(padded, metric="chessboard")[inner] - 1.0
+        depth = np.maximum(np.maximum(euclidean, chessboard), 0.0)
+    out[:-1, :-1, :-1] = np.where(cells, depth, 0.0)
+    return out
 
 
 @njit(cache=True, nogil=True)

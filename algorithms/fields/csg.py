@@ -43,17 +43,24 @@ __all__ = ["OPERATIONS", "combine", "isosurface_field"]
 OPERATIONS = ("union", "intersection", "difference")
 
 
+#: Elements per parallel chunk of :func:`_fold`.
+CHUNK = 1 << 16
+
+
 @njit(cache=True, nogil=True, parallel=True)
-def _fold(out, other, operation, blend):
-    """``out = out (op) other`` in place; ``operation`` 0 union, 1 intersection, 2 difference; ``blend`` mm."""
+def _fold(out, first, other, operation, blend, bad):
+    """``out = first (op) other`` in one pass (``out`` may be ``first``); ``operation`` 0 union, 1 intersection, 2
+    difference; ``blend`` mm. ``bad[c]`` is set where chunk ``c`` met a NaN or infinite input."""
     flat = out.reshape(-1)
-    second = other.reshape(-1)
+    left = first.reshape(-1)
+    right = other.reshape(-1)
     n = flat.shape[0]
-    chunk = 1 << 16
-    for c in prange((n + chunk - 1) // chunk):
-        for q in range(c * chunk, min(n, (c + 1) * chunk)):
-            a = flat[q]
-            b = second[q]
+    for c in prange((n + CHUNK - 1) // CHUNK):
+        finite = True
+        for q in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
+            a = left[q]
+            b = right[q]
+            finite &= (abs(a) < np.inf) & (abs(b) < np.inf)  # False for NaN too
             if operation == 2:
                 b = -b
             if operation == 0:  # smooth or sharp minimum
@@ -67,10 +74,13 @@ def _fold(out, other, operation, blend):
                     h = max(blend - abs(a - b), 0.0) / blend
                     m += 0.25 * blend * h * h
             flat[q] = m
+        if not finite:
+            bad[c] = True
 
 
-def combine(fields: Sequence[np.ndarray], operation: str, *, blend_mm: float = 0.0) -> np.ndarray:
-    """``fields[0] (op) fields[1] (op) ...`` (see the module notes), a new float32 array.
+def combine(fields: Sequence[np.ndarray], operation: str, *, blend_mm: float = 0.0,
+            out: np.ndarray | None = None) -> np.ndarray:
+    """``fields[0] (op) fields[1] (op) ...`` (see the module notes) as float32, in one parallel pass per extra field.
 
     Parameters
     ----------
@@ -80,11 +90,13 @@ def combine(fields: Sequence[np.ndarray], operation: str, *, blend_mm: float = 0
         ``min``, ``max``, or ``max(f1, -f2, -f3, ...)``.
     blend_mm : float
         Blend radius of the smooth variant (0: sharp).
+    out : ndarray (nz, ny, nx) float32, C order, optional
+        Where to write the result (a new array when omitted; it may be one of the fields).
 
     Raises
     ------
     ValueError
-        Fewer than two fields, differing shapes, non-finite values, unknown operation or negative blend.
+        Fewer than two fields, differing shapes, non-finite values, unknown operation, negative blend, bad ``out``.
     """
     if operation not in OPERATIONS:
         raise ValueError(f"operation must be one of {', '.join(OPERATIONS)}, got {operation!r}")
@@ -99,14 +111,21 @@ def combine(fields: Sequence[np.ndarray], operation: str, *, blend_mm: float = 0
     for n, f in enumerate(fields[1:], start=2):
         if np.shape(f) != shape:
             raise ValueError(f"field {n} has shape {np.shape(f)}, field 1 {shape}: resample them onto one grid first")
-    for n, f in enumerate(fields, start=1):
-        if not np.all(np.isfinite(f)):
-            raise ValueError(f"field {n} holds NaN or infinite values; CSG needs finite distances (clamp or "
-                             "propagate them)")
-    out = np.array(fields[0], dtype=np.float32, copy=True, order="C")
+    if out is None:
+        out = np.empty(shape, dtype=np.float32)
+    elif out.shape != shape or out.dtype != np.float32 or not out.flags.c_contiguous or not out.flags.writeable:
+        raise ValueError(f"out must be a writeable C-ordered float32 array of shape {shape}")
     code = OPERATIONS.index(operation)
+    bad = np.zeros((int(np.prod(shape)) + CHUNK - 1) // CHUNK, dtype=np.bool_)
+    first = np.ascontiguousarray(fields[0], dtype=np.float32)
     for f in fields[1:]:
-        _fold(out, np.ascontiguousarray(f, dtype=np.float32), code, np.float32(blend_mm))
+        _fold(out, first, np.ascontiguousarray(f, dtype=np.float32), code, np.float32(blend_mm), bad)
+        first = out
+    if bad.any():
+        for n, f in enumerate(fields, start=1):
+            if not np.all(np.isfinite(f)):
+                raise ValueError(f"field {n} holds NaN or infinite values; CSG needs finite distances (clamp or "
+                                 "propagate them)")
     return out
 
 

@@ -47,6 +47,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from ..common.grid import Grid
@@ -209,19 +210,21 @@ def band_distances(points, triangles, grid: Grid, band_mm: float, *, regions: st
     busy = np.flatnonzero(np.diff(slab_start) > 0)
     counts = np.zeros((n_slabs, 2), dtype=np.int64)
     if busy.size:
-        # chunks of similar work; inside a chunk the slabs are shuffled so both threads get a fair share
-        work = np.cumsum(np.diff(slab_start)[busy])
-        chunks = max(1, min(16, busy.size // 4))
+        # a few calls of similar work (for progress); inside each, the heaviest slabs first and handed out one at
+        # a time, so both threads stay busy to the end
+        slab_work = np.diff(slab_start)[busy]
+        work = np.cumsum(slab_work)
+        chunks = max(1, min(4, busy.size // 8))
         bounds = np.searchsorted(work, np.linspace(0, work[-1], chunks + 1)[1:-1], side="right")
-        rng = np.random.default_rng(0)
         done = 0
-        for part in np.split(busy, bounds):
-            if part.size == 0:
-                continue
-            scan.scan_slabs(rng.permutation(part).astype(np.int64), slab, slab_start, members, *args, spacing,
-                            distance2, nearest, counts)
-            done += part.size
-            report(progress, 0.1 + 0.9 * done / busy.size)
+        with numba.parallel_chunksize(1):
+            for part, part_work in zip(np.split(busy, bounds), np.split(slab_work, bounds)):
+                if part.size == 0:
+                    continue
+                order = part[np.argsort(-part_work, kind="stable")].astype(np.int64)
+                scan.scan_slabs(order, slab, slab_start, members, *args, spacing, distance2, nearest, counts)
+                done += part.size
+                report(progress, 0.1 + 0.9 * done / busy.size)
     report(progress, 1.0)
     stats = {"regions": int(n_regions), "prisms_or_boxes": int(m), "wedges": int(len(wedges)),
              "cones": int(len(cone_info)), "slab_region_pairs": entries, "evaluations": int(counts[:, 0].sum()),

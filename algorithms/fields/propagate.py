@@ -1,62 +1,206 @@
-"""Filling the grid outside the exact band: nearest-triangle propagation, so every far voxel still measures its
-distance to a real triangle of the mesh.
+"""Filling the grid outside the exact band: every far voxel measures its exact distance to candidate triangles
+handed to it by a Euclidean feature transform of the band (or by the same propagation on every second voxel), then
+checks its neighbours' triangles.
 
 Method
 ------
 Source 002 (section 3.3) proposes to fill the space its band leaves out by propagating from the exact band values.
-Propagating distance *values* (fast marching, fast sweeping of the eikonal equation, a distance transform of the
-band) accumulates discretisation error; here, as in vector or closest-point propagation (Danielsson 1980; Mauch
-2003; the closest-triangle sweeps of Batty's SDFGen), what travels is the index of a nearest triangle, and every
-voxel measures its own exact distance to each candidate it is offered, keeping the smallest:
+Propagating distance *values* (fast marching, fast sweeping, a distance transform of the band) accumulates
+discretisation error; here, as in closest-point propagation (Danielsson 1980; Mauch 2003; the closest-triangle
+sweeps of Batty's SDFGen), what travels is the index of a nearest triangle, and every voxel measures its own exact
+distance to each candidate it is offered, keeping the smallest:
 
-1. sweeps along i, j and k, forwards and backwards (each line in parallel): every voxel outside the band is
-   offered the triangle of the voxel before it, so every voxel holds some triangle;
-2. a descent on the mesh from each voxel's triangle: if the point of that triangle nearest to the voxel lies on an
-   edge or at a vertex (the source's regions II-VI), the triangles sharing that edge or vertex are tried, and the
-   voxel moves to a nearer one until none is nearer;
-3. jump flooding (Rong and Tan 2006): each voxel is offered the triangles of the 26 voxels ``s`` away, for ``s`` =
-   half the grid's largest side, halved down to 1, which carries triangles across thin parts and around corners
-   that the sweeps and the descent miss;
-4. rounds of (26-neighbour offers + descent) until a round changes no voxel (at most ``passes``).
+1. **candidates**: on a grid of fewer than :data:`COARSE_FROM` voxels along some axis, the exact separable
+   Euclidean distance transform of Felzenszwalb and Huttenlocher (2012; the lower envelope of parabolas, as in
+   Meijster et al. 2000), one pass per axis with the grid's own (possibly anisotropic) spacing, every line in
+   parallel, gives every voxel its *nearest band voxel* ``w`` (exact, ties aside), and the voxel measures its
+   distance to ``w``'s nearest triangle (O(N)). On larger grids the whole propagation runs first on every second
+   voxel (recursively), and each voxel measures the triangles of the (up to 8) coarse voxels around it; a voxel
+   whose coarse neighbours all hold one triangle is taken as settled and skips step 2 and the first round of step
+   3 (a heuristic: the regions of nearest points are close to convex at the scale of a cell, but not exactly, since
+   their borders are curved where an edge or a vertex faces a face; the measured errors include it);
+2. **mesh descent**: if the point of the voxel's triangle nearest to it lies on an edge or at a vertex (the source's
+   regions II-VI), the triangles sharing that edge or vertex are tried, and the voxel moves to a nearer one until
+   none is nearer;
+3. **local check**: a first round, in parallel, in which each voxel next to a voxel still to check (or, on the
+   finer levels, to a band voxel) is offered the triangles of those of its 26 neighbours, then a worklist: every voxel that took a new triangle offers it to its 26 neighbours, and a neighbour that takes it
+   descends from it and joins the list, until the list is empty. Every voxel examined ends nearer to its own
+   triangle than to its neighbours' and to the triangles next to its own nearest edge or vertex.
 
 Values are compared as stored (float32), so every accepted offer strictly lowers a voxel's value and the rounds end.
 
 Error bound
 -----------
 A propagated value is the distance to a real triangle, so it is never below the true distance ``D``: the error
-``e = value - D >= 0``. It is zero where the voxel's nearest triangle reaches it (through the sweeps or the descent:
-a nearest triangle on the same sheet of surface as a candidate is always found by the descent, whose distance
-along the sheet has no other local minimum). When a neighbour ``w`` (at ``|v - w| <= h``, ``h`` the largest voxel
-diagonal step) holds its exact nearest triangle, ``e(v) <= 2 |v - w|``, since ``dist(v, T_w) <= D(w) + |v - w|
-<= D(v) + 2 |v - w|``; a voxel can only miss its nearest triangle when that triangle's region of nearest points
-(its Voronoi cell) passes between the voxel centres around it, that is near the medial axis where two sheets are
-equally far, and there the error is the difference of two nearly equal distances. The benchmark and the tests
-measure it against exact distances (``voxelscope bench distance``: at most 0.05 voxels at 10,000 random far
-voxels is required; SDFGen reaches 0.084).
+``e = value - D >= 0``. Before the checks: let ``p`` be the voxel's nearest mesh point; the point of the segment
+from ``v`` to ``p`` at ``d - h sqrt(3) / 2`` from ``p`` (``d`` the band width, ``h`` the largest spacing, ``d >= h
+sqrt(3)``) has a voxel ``u`` within ``h sqrt(3) / 2`` that is in the band, so the nearest band voxel ``w`` has
+``|v - w| <= |v - u| <= D - d + h sqrt(3)``, and ``e <= |v - w| + D(w) - D <= h sqrt(3)``. From a coarse level,
+a coarse voxel ``c`` within ``h sqrt(3) / 2`` of ``v`` gives ``e(v) <= e(c) + 2 |v - c| <= e(c) + h sqrt(3)``. These
+a priori bounds are loose: when ``w`` lies on the segment, ``T_w`` is the voxel's own nearest triangle (every point of the segment has
+the same nearest point), so ``e`` comes only from ``w``'s offset from the segment (within about half a voxel) and
+from curvature of the mesh between the two nearest points, which the descent and the local check remove wherever
+the distance along the mesh has one minimum; what remains is near the medial axis, where two sheets are nearly
+equally far and the error is the difference of two nearly equal distances. The benchmark and the tests measure it
+against exact distances (at most 0.05 voxels at 10,000 random far voxels is required; SDFGen reaches 0.084).
 
 Coordinates: the grid's frame in mm, voxel ``(i, j, k)`` at ``(i sx, j sy, k sz)``; arrays ``(nz, ny, nx)``.
 
 References
 ----------
 Source 002 (see docs/references.md), section 3.3 (combining the exact band with propagation).
+P. F. Felzenszwalb, D. P. Huttenlocher, "Distance transforms of sampled functions", Theory of Computing 8, 2012.
+A. Meijster, J. B. T. M. Roerdink, W. H. Hesselink, "A general algorithm for computing distance transforms in
+linear time", Mathematical Morphology and its Applications to Image and Signal Processing, 2000.
 P.-E. Danielsson, "Euclidean distance mapping", Computer Graphics and Image Processing 14, 1980.
 S. Mauch, "Efficient algorithms for solving static Hamilton-Jacobi equations", PhD thesis, Caltech, 2003.
-G. Rong, T.-S. Tan, "Jump flooding in GPU with applications to Voronoi diagram and distance transform", I3D 2006.
 C. Batty, SDFGen (closest-triangle fast sweeping), https://github.com/christopherbatty/SDFGen.
 """
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from numba import njit, prange
 
-from ..common.progress import ProgressCallback, report
+from ..common.progress import ProgressCallback, report, scaled
 from ._distance_kernels import frame_feature, point_triangle_distance2
 
 __all__ = ["propagate"]
 
 #: Mesh steps of the descent before it gives up (each step is strictly nearer, so it ends anyway).
 MAX_STEPS = 64
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _already_tried(tried, n_tried, candidate) -> bool:
+    """Whether ``candidate`` is among the first ``n_tried`` entries of ``tried`` (a voxel's short candidate list)."""
+    for r in range(n_tried):
+        if tried[r] == candidate:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _envelope(f, site, n, h, v, z, out_f, out_site):
+    """1-D squared distance transform of ``f`` (``inf``: no site) on positions ``q h``: ``out_f[q] = min_p f[p] +
+    (q h - p h)^2`` and ``out_site[q]`` = ``site`` of the minimising ``p`` (the lower envelope of parabolas,
+    Felzenszwalb and Huttenlocher); ``v`` (n) and ``z`` (n + 1) are work space. Returns False when no site."""
+    top = -1
+    for q in range(n):
+        fq = f[q]
+        if fq == np.inf:
+            continue
+        xq = q * h
+        while top >= 0:
+            p = v[top]
+            xp = p * h
+            s = ((fq + xq * xq) - (f[p] + xp * xp)) / (2.0 * (xq - xp))
+            if s <= z[top]:
+                top -= 1
+            else:
+                top += 1
+                v[top] = q
+                z[top] = s
+                break
+        if top < 0:
+            top = 0
+            v[0] = q
+            z[0] = -np.inf
+    if top < 0:
+        return False
+    z[top + 1] = np.inf
+    c = 0
+    for q in range(n):
+        x = q * h
+        while z[c + 1] < x:
+            c += 1
+        p = v[c]
+        out_f[q] = (x - p * h) ** 2 + f[p]
+        out_site[q] = site[p]
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _line_workspace(n):
+    """Work arrays of one :func:`_envelope` call on a line of ``n`` samples: values, sites, parabola positions,
+    boundaries (n + 1), output values, output sites."""
+    return (np.empty(n), np.empty(n, dtype=np.int32), np.empty(n, dtype=np.int64), np.empty(n + 1), np.empty(n),
+            np.empty(n, dtype=np.int32))
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def feature_rows(best, band2, sx, work, site):
+    """Pass along i: ``work`` = squared distance (mm^2) to the nearest band voxel of the row, ``site`` its flat
+    index (-1 where the row has none); rows in parallel."""
+    nz, ny, nx = best.shape
+    for k in prange(nz):
+        f, s, v, z, out_f, out_s = _line_workspace(nx)
+        for j in range(ny):
+            base = (k * ny + j) * nx
+            for i in range(nx):
+                f[i] = 0.0 if best[k, j, i] <= band2 else np.inf
+                s[i] = base + i
+            if _envelope(f, s, nx, sx, v, z, out_f, out_s):
+                for i in range(nx):
+                    work[k, j, i] = out_f[i]
+                    site[k, j, i] = out_s[i]
+            else:
+                for i in range(nx):
+                    work[k, j, i] = np.inf
+                    site[k, j, i] = -1
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def feature_columns(work, site, sy):
+    """Pass along j, in place on ``work`` and ``site``; slices in parallel."""
+    nz, ny, nx = work.shape
+    for k in prange(nz):
+        f, s, v, z, out_f, out_s = _line_workspace(ny)
+        for i in range(nx):
+            for j in range(ny):
+                f[j] = work[k, j, i]
+                s[j] = site[k, j, i]
+            if _envelope(f, s, ny, sy, v, z, out_f, out_s):
+                for j in range(ny):
+                    work[k, j, i] = out_f[j]
+                    site[k, j, i] = out_s[j]
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def feature_slices(work, site, sz, best, nearest, frames, spacing, band2):
+    """Pass along k, then every voxel outside the band measures its distance to the triangle of its nearest band
+    voxel (kept if nearer than what it holds); columns (fixed j) in parallel, a whole (k, i) plane at a time."""
+    nz, ny, nx = work.shape
+    flat_nearest = nearest.reshape(-1)
+    for j in prange(ny):
+        f_plane = np.empty((nz, nx))
+        s_plane = np.empty((nz, nx), dtype=np.int32)
+        target = np.empty((nz, nx), dtype=np.int32)
+        f, s, v, z, out_f, out_s = _line_workspace(nz)
+        for k in range(nz):
+            for i in range(nx):
+                f_plane[k, i] = work[k, j, i]
+                s_plane[k, i] = site[k, j, i]
+        for i in range(nx):
+            for k in range(nz):
+                f[k] = f_plane[k, i]
+                s[k] = s_plane[k, i]
+            if _envelope(f, s, nz, sz, v, z, out_f, out_s):
+                for k in range(nz):
+                    target[k, i] = out_s[k]
+            else:
+                for k in range(nz):
+                    target[k, i] = -1
+        y = j * spacing[1]
+        for k in range(nz):
+            zz = k * spacing[2]
+            for i in range(nx):
+                if best[k, j, i] <= band2 or target[k, i] < 0:
+                    continue
+                candidate = flat_nearest[target[k, i]]  # a band voxel's: never written here
+                _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, zz, band2)
 
 
 @njit(cache=True, nogil=True)
@@ -72,49 +216,67 @@ def _offer(best, nearest, k, j, i, candidate, frames, x, y, z, band2):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def sweep_rows(best, nearest, frames, spacing, band2):
-    """Forwards and backwards along i, every row in parallel."""
+def refine_round(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces,
+                 vertex_start, vertex_faces, spacing, band2, was, now, rows_was, rows_now, changed):
+    """The parallel first round of the local check: every voxel outside the band next to a voxel marked in ``was``
+    (per voxel; ``rows_was``, per row ``(k, j)``) is offered the triangles of those of its 26 neighbours and
+    descends from a better one; voxels that take one are marked in ``now`` /
+    ``rows_now`` (where :func:`settle` starts). ``changed[k]`` counts them per slice. Neighbours are read as they
+    are (one updated during this round offers its newer triangle, which is marked for the worklist anyway)."""
     nz, ny, nx = best.shape
     for k in prange(nz):
         z = k * spacing[2]
+        count = 0
+        tried = np.empty(27, dtype=np.int64)
         for j in range(ny):
+            active = False
+            for kk in range(max(k - 1, 0), min(k + 2, nz)):
+                for jj in range(max(j - 1, 0), min(j + 2, ny)):
+                    active |= rows_was[kk, jj]
+            if not active:
+                continue
             y = j * spacing[1]
-            for i in range(1, nx):
-                _offer(best, nearest, k, j, i, nearest[k, j, i - 1], frames, i * spacing[0], y, z, band2)
-            for i in range(nx - 2, -1, -1):
-                _offer(best, nearest, k, j, i, nearest[k, j, i + 1], frames, i * spacing[0], y, z, band2)
+            row_count = 0
+            for i in range(nx):
+                if best[k, j, i] <= band2:
+                    continue
+                tried[0] = nearest[k, j, i]
+                n_tried = 1
+                took = False
+                for q in range(27):
+                    di, dj, dk = q % 3 - 1, (q // 3) % 3 - 1, q // 9 - 1
+                    if q == 13:
+                        continue
+                    ii, jj, kk = i + di, j + dj, k + dk
+                    if ii < 0 or ii >= nx or jj < 0 or jj >= ny or kk < 0 or kk >= nz or not was[kk, jj, ii]:
+                        continue
+                    candidate = nearest[kk, jj, ii]
+                    if _already_tried(tried, n_tried, candidate):
+                        continue
+                    tried[n_tried] = candidate
+                    n_tried += 1
+                    if _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2):
+                        took = True
+                if took:
+                    _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
+                             edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z)
+                    now[k, j, i] = True
+                    row_count += 1
+            if row_count:
+                rows_now[k, j] = True
+                count += row_count
+        changed[k] = count
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def sweep_columns(best, nearest, frames, spacing, band2):
-    """Forwards and backwards along j, every slice in parallel."""
-    nz, ny, nx = best.shape
+def clear_rows(flags, rows):
+    """Zero ``flags[k, j, :]`` and ``rows[k, j]`` wherever ``rows[k, j]`` is set."""
+    nz, ny, nx = flags.shape
     for k in prange(nz):
-        z = k * spacing[2]
-        for j in range(1, ny):
-            y = j * spacing[1]
-            for i in range(nx):
-                _offer(best, nearest, k, j, i, nearest[k, j - 1, i], frames, i * spacing[0], y, z, band2)
-        for j in range(ny - 2, -1, -1):
-            y = j * spacing[1]
-            for i in range(nx):
-                _offer(best, nearest, k, j, i, nearest[k, j + 1, i], frames, i * spacing[0], y, z, band2)
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def sweep_slices(best, nearest, frames, spacing, band2):
-    """Forwards and backwards along k, every column (fixed j) in parallel."""
-    nz, ny, nx = best.shape
-    for j in prange(ny):
-        y = j * spacing[1]
-        for k in range(1, nz):
-            z = k * spacing[2]
-            for i in range(nx):
-                _offer(best, nearest, k, j, i, nearest[k - 1, j, i], frames, i * spacing[0], y, z, band2)
-        for k in range(nz - 2, -1, -1):
-            z = k * spacing[2]
-            for i in range(nx):
-                _offer(best, nearest, k, j, i, nearest[k + 1, j, i], frames, i * spacing[0], y, z, band2)
+        for j in range(ny):
+            if rows[k, j]:
+                flags[k, j, :] = False
+                rows[k, j] = False
 
 
 @njit(cache=True, nogil=True)
@@ -163,121 +325,207 @@ def _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_
 
 @njit(cache=True, nogil=True, parallel=True)
 def descend(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces, vertex_start,
-            vertex_faces, spacing, band2, moved):
-    """The mesh descent of every voxel outside the band, slices in parallel; ``moved[k]`` counts the voxels of slice
-    ``k`` that found a nearer triangle."""
+            vertex_faces, spacing, band2, todo, rows_todo, moved, marks, rows):
+    """The mesh descent of every voxel outside the band marked in ``todo`` (rows in ``rows_todo``), slices in
+    parallel; ``moved[k]`` counts the voxels of slice ``k`` that found a nearer triangle, also marked in ``marks``
+    (per voxel) and ``rows`` (per row)."""
     nz, ny, nx = best.shape
     for k in prange(nz):
         z = k * spacing[2]
         count = 0
         for j in range(ny):
+            if not rows_todo[k, j]:
+                continue
+            y = j * spacing[1]
+            row_count = 0
+            for i in range(nx):
+                if best[k, j, i] <= band2 or not todo[k, j, i]:
+                    continue
+                if _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
+                            edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z):
+                    marks[k, j, i] = True
+                    row_count += 1
+            if row_count:
+                rows[k, j] = True
+                count += row_count
+        moved[k] = count
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def from_coarse(best, nearest, coarse, frames, spacing, band2, marks, rows):
+    """Every voxel outside the band is offered the triangles of the (up to 8) voxels of the half-resolution grid
+    ``coarse`` (voxel ``(i, j, k)`` there is voxel ``(2i, 2j, 2k)`` here) around it; the voxels offered more than
+    one triangle are marked in ``marks`` (per voxel) and ``rows`` (per row)."""
+    nz, ny, nx = best.shape
+    cz, cy, cx = coarse.shape
+    for k in prange(nz):
+        z = k * spacing[2]
+        tried = np.empty(8, dtype=np.int64)
+        for j in range(ny):
             y = j * spacing[1]
             for i in range(nx):
                 if best[k, j, i] <= band2:
                     continue
-                if _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
-                            edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z):
-                    count += 1
-        moved[k] = count
+                n_tried = 0
+                for q in range(8):
+                    kk = min((k + (q & 1)) // 2, cz - 1)
+                    jj = min((j + ((q >> 1) & 1)) // 2, cy - 1)
+                    ii = min((i + (q >> 2)) // 2, cx - 1)
+                    candidate = coarse[kk, jj, ii]
+                    if _already_tried(tried, n_tried, candidate):
+                        continue
+                    tried[n_tried] = candidate
+                    n_tried += 1
+                    _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2)
+                if n_tried > 1:
+                    marks[k, j, i] = True
+                    rows[k, j] = True
 
 
-def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: float, *, passes: int = 8,
+@njit(cache=True, nogil=True)
+def settle(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces, vertex_start,
+           vertex_faces, spacing, band2, start, queued):
+    """The rest of the local check as one worklist, in order: every voxel in the list (first: ``start``, flat
+    indices of the voxels the first round changed; ``queued`` marks them) offers its triangle to its face
+    neighbours outside the band; a neighbour that takes it descends from it and joins the list. Ends when the list
+    is empty (every accepted offer strictly lowers a stored value). Returns the number of voxels changed."""
+    nz, ny, nx = best.shape
+    capacity = max(1024, 2 * start.shape[0])
+    queue = np.empty(capacity, dtype=np.int64)
+    queue[:start.shape[0]] = start
+    head = 0
+    size = start.shape[0]
+    changes = 0
+    while size:
+        v = queue[head]
+        head = (head + 1) % capacity
+        size -= 1
+        i = v % nx
+        j = (v // nx) % ny
+        k = v // (nx * ny)
+        queued[k, j, i] = False
+        candidate = nearest[k, j, i]
+        for q in range(27):
+            ii = i + q % 3 - 1
+            jj = j + (q // 3) % 3 - 1
+            kk = k + q // 9 - 1
+            if q == 13 or ii < 0 or ii >= nx or jj < 0 or jj >= ny or kk < 0 or kk >= nz:
+                continue
+            x, y, z = ii * spacing[0], jj * spacing[1], kk * spacing[2]
+            if not _offer(best, nearest, kk, jj, ii, candidate, frames, x, y, z, band2):
+                continue
+            _descend(best, nearest, kk, jj, ii, frames, frame_vertices, rotation, triangle_edges, edge_start,
+                     edge_faces, vertex_start, vertex_faces, x, y, z)
+            changes += 1
+            if queued[kk, jj, ii]:
+                continue
+            if size == capacity:  # grow, keeping the order
+                bigger = np.empty(2 * capacity, dtype=np.int64)
+                for r in range(size):
+                    bigger[r] = queue[(head + r) % capacity]
+                queue = bigger
+                capacity *= 2
+                head = 0
+            queue[(head + size) % capacity] = (kk * ny + jj) * nx + ii
+            queued[kk, jj, ii] = True
+            size += 1
+    return changes
+
+
+#: Grids at least this large along every axis start from a half-resolution propagation.
+COARSE_FROM = 96
+
+
+def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: float, *,
               progress: ProgressCallback = None) -> dict:
     """Fill ``best`` (squared mm, float32) and ``nearest`` (int32) outside the band, in place (see the module notes).
 
-    ``mesh`` is a :class:`.distance.MeshFrames`; voxels with ``best <= band_mm**2`` are exact and kept. One round of
-    sweeps along the three axes, a mesh descent, jump-flooding offers at steps ``2^p ... 1``, then up to ``passes``
-    rounds of (26-neighbour offers + descent), stopping as soon as a round changes no voxel. Returns counts for the
-    report.
+    ``mesh`` is a :class:`.distance.MeshFrames`; voxels with ``best <= band_mm**2`` (and a triangle) are exact and
+    kept. Each voxel outside the band first gets candidate triangles: on a grid of at least :data:`COARSE_FROM`
+    voxels along every axis (and a band at least a quarter of the doubled spacing), those of the propagation on
+    every second voxel (recursively); otherwise the triangle of its nearest band voxel (the feature transform).
+    Then the mesh descent and the local check (one parallel round, then the worklist until nothing changes).
+    Returns counts (``changes_per_pass``: voxels still to check, changed by the first round, by the worklist) and
+    seconds for the report.
     """
     spacing = np.asarray(spacing, dtype=np.float64)
     band2 = np.float32(band_mm) ** 2 if np.isfinite(band_mm) else np.float32(np.inf)
+    if best.size >= np.iinfo(np.int32).max:
+        raise ValueError(f"a grid of {best.size:,} voxels is too large for propagation (at most 2^31 - 1)")
+    start = time.perf_counter()
     frames = mesh.frames
-    jumps = []
-    step = 1 << max(0, int(np.log2(max(best.shape))) - 1)
-    while step >= 1:
-        jumps.append(step)
-        step //= 2
-    steps = 4 + len(jumps) + passes
-    done = 0
-    for sweep in (sweep_rows, sweep_columns, sweep_slices):
-        sweep(best, nearest, frames, spacing, band2)
-        done += 1
-        report(progress, done / steps)
+    seeds = best <= band2
+    seeds &= nearest >= 0
+    n_seeds = int(np.count_nonzero(seeds))
+    del seeds
+    levels = 1
+    # the voxels still to check (descent, first round of the local check): all, or those whose coarse neighbours
+    # disagree (a cell whose 8 coarse corners share a triangle lies in that triangle's region, which is convex)
+    todo = np.zeros(best.shape, dtype=np.bool_)
+    rows_todo = np.zeros(best.shape[:2], dtype=np.bool_)
+    if min(best.shape) >= COARSE_FROM and 2.0 * max(spacing) <= 4.0 * band_mm:
+        coarse_best = np.ascontiguousarray(best[::2, ::2, ::2])
+        coarse = np.ascontiguousarray(nearest[::2, ::2, ::2])
+        inner = propagate(coarse_best, coarse, mesh, 2.0 * spacing, band_mm,
+                          progress=scaled(progress, 0.0, 0.3))
+        del coarse_best
+        levels += inner["levels"]
+        from_coarse(best, nearest, coarse, frames, spacing, band2, todo, rows_todo)
+        del coarse
+        # the band's own triangles are offered to the voxels next to it (the coarse level has only every second)
+        in_band = best <= band2
+        todo |= in_band
+        rows_todo |= in_band.any(axis=2)
+        del in_band
+    else:
+        if n_seeds == 0:
+            # no voxel within the band: seed the grid's centre voxel with its exact nearest triangle (brute force)
+            from ._distance_kernels import distances_to_mesh
+
+            k, j, i = (n // 2 for n in best.shape)
+            out2, which = np.empty(1), np.empty(1, dtype=np.int64)
+            distances_to_mesh(frames, np.array([[i * spacing[0], j * spacing[1], k * spacing[2]]]), out2, which)
+            best[k, j, i] = min(best[k, j, i], np.float32(out2[0]))
+            nearest[k, j, i] = which[0]
+            band2 = min(band2, best[k, j, i])
+        work = np.empty(best.shape, dtype=np.float32)
+        site = np.empty(best.shape, dtype=np.int32)
+        feature_rows(best, band2, spacing[0], work, site)
+        feature_columns(work, site, spacing[1])
+        feature_slices(work, site, spacing[2], best, nearest, frames, spacing, band2)
+        del work, site
+        todo[:] = True
+        rows_todo[:] = True
+    timing = {"candidates": time.perf_counter() - start}
+    report(progress, 0.4)
     mesh.with_topology()
     _, edge_start, edge_faces, vertex_start, vertex_faces, triangle_edges = mesh.topology
     moved = np.zeros(best.shape[0], dtype=np.int64)
     changed = np.zeros(best.shape[0], dtype=np.int64)
-
-    def descent() -> int:
-        moved[:] = 0
-        descend(best, nearest, frames, mesh.frame_vertices, mesh.rotation, triangle_edges, edge_start, edge_faces,
-                vertex_start, vertex_faces, spacing, band2, moved)
-        return int(moved.sum())
-
-    def offers(jump: int) -> int:
-        changed[:] = 0
-        neighbourhood(best, nearest, nearest.copy(), frames, spacing, band2, changed, jump)
-        return int(changed.sum())
-
-    total_moves = descent()
-    done += 1
-    report(progress, done / steps)
-    for jump in jumps:
-        offers(jump)
-        done += 1
-        report(progress, done / steps)
-    changed_per_pass = []
-    for _ in range(passes):
-        count = offers(1)
-        count += descent()
-        changed_per_pass.append(count)
-        done += 1
-        report(progress, done / steps)
-        if count == 0:
-            break
+    # the first round of the local check looks next to every voxel still to check; later rounds only next to the
+    # voxels that changed
+    was, rows_was = todo, rows_todo
+    now = np.zeros(best.shape, dtype=np.bool_)
+    rows_now = np.zeros(best.shape[:2], dtype=np.bool_)
+    tick = time.perf_counter()
+    descend(best, nearest, frames, mesh.frame_vertices, mesh.rotation, triangle_edges, edge_start, edge_faces,
+            vertex_start, vertex_faces, spacing, band2, todo, rows_todo, moved, now, rows_now)
+    timing["descent"] = time.perf_counter() - tick
+    tick = time.perf_counter()
+    report(progress, 0.5)
+    changed_per_pass = [int(np.count_nonzero(todo))]
+    clear_rows(now, rows_now)
+    changed[:] = 0
+    refine_round(best, nearest, frames, mesh.frame_vertices, mesh.rotation, triangle_edges, edge_start,
+                 edge_faces, vertex_start, vertex_faces, spacing, band2, was, now, rows_was, rows_now, changed)
+    changed_per_pass.append(int(changed.sum()))
+    timing["first_round"] = time.perf_counter() - tick
+    del was, rows_was, todo, rows_todo
+    report(progress, 0.7)
+    changed_per_pass.append(settle(best, nearest, frames, mesh.frame_vertices, mesh.rotation, triangle_edges,
+                                   edge_start, edge_faces, vertex_start, vertex_faces, spacing, band2,
+                                   np.flatnonzero(now.reshape(-1)), now))
+    timing["local_check"] = time.perf_counter() - tick
     report(progress, 1.0)
-    return {"jump_steps": jumps, "changes_per_pass": changed_per_pass}
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def neighbourhood(best, nearest, source, frames, spacing, band2, changed, step=1):
-    """Every voxel outside the band is offered the triangles of its 26 neighbours ``step`` voxels away in ``source``
-    (a copy of ``nearest`` from before the pass); ``changed[k]`` counts the voxels of slice ``k`` that took one."""
-    nz, ny, nx = best.shape
-    for k in prange(nz):
-        z = k * spacing[2]
-        count = 0
-        tried = np.empty(27, dtype=np.int64)  # the distinct triangles offered to this voxel so far
-        for j in range(ny):
-            y = j * spacing[1]
-            for i in range(nx):
-                if best[k, j, i] <= band2:
-                    continue
-                x = i * spacing[0]
-                n_tried = 0
-                for dk in range(-step, step + 1, step):
-                    kk = k + dk
-                    if kk < 0 or kk >= nz:
-                        continue
-                    for dj in range(-step, step + 1, step):
-                        jj = j + dj
-                        if jj < 0 or jj >= ny:
-                            continue
-                        for di in range(-step, step + 1, step):
-                            ii = i + di
-                            if ii < 0 or ii >= nx:
-                                continue
-                            candidate = source[kk, jj, ii]
-                            seen = False
-                            for q in range(n_tried):
-                                if tried[q] == candidate:
-                                    seen = True
-                                    break
-                            if seen:
-                                continue
-                            tried[n_tried] = candidate
-                            n_tried += 1
-                            if _offer(best, nearest, k, j, i, candidate, frames, x, y, z, band2):
-                                count += 1
-        changed[k] = count
+    return {"seed_voxels": n_seeds, "levels": levels, "changes_per_pass": changed_per_pass,
+            "propagation_seconds": timing}

@@ -38,6 +38,7 @@ from ..common.selection import (
     REMOVE,
     SHAPES,
     ToolSet,
+    grid_leap_depths,
     removal_field,
 )
 
@@ -96,6 +97,9 @@ class Tool:
     role: str = ""
     visible: bool = True
     label: str = ""
+    #: Grid tools' leap depth tables by (mode, evaluation, width): made once per tool and shared by its moved copies
+    #: (the depths live in the grid's own index frame, which moves with the matrix).
+    leap_cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.shape not in SHAPES:
@@ -141,6 +145,16 @@ class Tool:
                 matrix[:3, 3] = np.asarray(centre, dtype=np.float64)
         return replace(self, matrix=matrix, size=self.size if size is None else tuple(size),
                        mode=self.mode if mode is None else mode, visible=self.visible if visible is None else visible)
+
+    def leap_depths(self, evaluation: str = "binary", width: float = 1.0) -> np.ndarray:
+        """The grid tool's leap depth table (:func:`~algorithms.common.selection.grid_leap_depths`) for its mode and
+        this evaluation, made on first use and kept (moving the tool does not change it)."""
+        key = (self.mode, evaluation, float(width) if evaluation == "distance" else 0.0)
+        entry = self.leap_cache.get(key)
+        if entry is None or entry[0] is not self.values:
+            entry = (self.values, grid_leap_depths(self.values, self.mode, evaluation, width))
+            self.leap_cache[key] = entry
+        return entry[1]
 
     def with_matrix(self, matrix) -> "Tool":
         return replace(self, matrix=np.asarray(matrix, dtype=np.float64))
@@ -256,7 +270,10 @@ def tool_set(tools, frame_to_world=None, *, evaluation: str = "binary", width: f
              cut_normals: bool = True) -> ToolSet:
     """The visible ``tools`` as a :class:`~algorithms.common.selection.ToolSet` for a renderer whose frame maps to
     LPS mm by ``frame_to_world`` (4x4; default identity). ``width``: the distance evaluation's transition (mm; pass
-    the smallest voxel spacing); ``band``: depth of cut shading (mm; default 1.5 ``width``)."""
+    the smallest voxel spacing); ``band``: depth of cut shading (mm; default 1.5 ``width``). With a binary-mask grid
+    tool the band stays below the mask's level ``h/2`` (its field is ``+-h/2`` away from the cut, see
+    :func:`grid_tool`): otherwise every kept sample in the tool's grid box would count as "on the cut" and be shaded
+    with a vanishing tool gradient instead of the data's."""
     if evaluation not in EVALUATIONS:
         raise ValueError(f"the cut evaluation is binary or distance, got {evaluation!r}")
     frame = np.eye(4) if frame_to_world is None else np.asarray(frame_to_world, dtype=np.float64)
@@ -268,7 +285,8 @@ def tool_set(tools, frame_to_world=None, *, evaluation: str = "binary", width: f
     params = np.zeros((n, 4))
     offsets = np.zeros(n, np.int64)
     shapes = np.zeros((n, 3), np.int64)
-    chunks, offset = [], 0
+    chunks, leaps, offset = [], [], 0
+    saturation = math.inf  # the smallest level of a binary-mask grid tool (mm, its field is +-level off the cut)
     for t, tool in enumerate(tools):
         kinds[t] = SHAPES[tool.shape]
         modes[t] = REMOVE if tool.mode == "remove" else KEEP
@@ -278,6 +296,9 @@ def tool_set(tools, frame_to_world=None, *, evaluation: str = "binary", width: f
             offsets[t] = offset
             shapes[t] = tool.grid.dimensions
             chunks.append(tool.values.ravel())
+            leaps.append(tool.leap_depths(evaluation, width).ravel())
+            if tool.role == "mask":
+                saturation = min(saturation, 0.5 * float(np.mean(tool.grid.spacing)))
             offset += tool.values.size
         else:
             matrices[t] = np.linalg.inv(tool.matrix) @ frame
@@ -287,10 +308,11 @@ def tool_set(tools, frame_to_world=None, *, evaluation: str = "binary", width: f
                 params[t, 0] = tool.size[0]
             elif tool.shape == "cylinder":
                 params[t, :2] = tool.size[0], tool.size[1] / 2
-    values = np.concatenate(chunks).astype(np.float32) if chunks else np.zeros(1, np.float32)
-    band = 1.5 * width if band is None else band
+    values = np.concatenate(chunks).astype(np.float32, copy=False) if chunks else np.zeros(1, np.float32)
+    grid_leaps = np.concatenate(leaps).astype(np.float32, copy=False) if leaps else None
+    band = min(1.5 * width if band is None else band, 0.99 * saturation)
     return ToolSet(kinds, modes, matrices, params, offsets, shapes, values, evaluation, float(width), float(band),
-                   bool(cut_normals))
+                   bool(cut_normals), grid_leaps, (evaluation, float(width)))
 
 
 def removed_mask(tools: ToolSet, shape, spacing) -> np.ndarray:

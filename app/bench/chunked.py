@@ -4,8 +4,10 @@ and the overhead of the distributed path against the in-memory one (issue 19).
 Volume
 ------
 A synthetic uint16 OME-Zarr (:func:`synthetic_store`): a gyroid (period 840 samples at 1024^3) inside a ball of radius
-0.41 n, values around 32768 with isovalue 32768, written chunk by chunk (128^3 chunks, blosc-zstd) so generating it
-never holds the volume. Full run: 1024^3 (2 GiB of samples); quick: 256^3 (32 MiB).
+0.41 n, values around 32768 with isovalue 32768, written chunk by chunk (128^3 chunks, blosc-zstd): each chunk is
+computed from the formula in one of 2 worker processes and written straight to the store, pyramid levels are block
+means of the stored level above (:mod:`app.io.zarr_blocks`), so generating it never holds more than a row of
+chunks. Full run: 1024^3 (2 GiB of samples); quick: 256^3 (32 MiB).
 
 Commands
 --------
@@ -43,9 +45,8 @@ COLUMNS = ("command", "workers", "size", "peak_all_mib", "sum_of_peaks_mib", "vo
            "triangles", "points", "blocks_meshed", "blocks_skipped", "exit_code")
 
 
-def _synthetic_block(block_info=None):
-    (z0, z1), (y0, y1), (x0, x1) = block_info[None]["array-location"]
-    n = block_info[None]["shape"][0]
+def synthetic_block(n: int, z0: int, z1: int, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
+    """Samples ``[z0:z1, y0:y1, x0:x1]`` of the ``n^3`` benchmark volume (uint16), from its formula."""
     z, y, x = np.ogrid[z0:z1, y0:y1, x0:x1]
     scale = 2 * np.pi / 840.0 * (1024.0 / n)  # the same shape at every size
     gyroid = (np.sin(x * scale) * np.cos(y * scale) + np.sin(y * scale) * np.cos(z * scale)
@@ -56,6 +57,11 @@ def _synthetic_block(block_info=None):
     return np.clip(np.round(values), 0, 65535).astype(np.uint16)
 
 
+def _synthetic_block(block_info=None):
+    (z0, z1), (y0, y1), (x0, x1) = block_info[None]["array-location"]
+    return synthetic_block(block_info[None]["shape"][0], z0, z1, y0, y1, x0, x1)
+
+
 def synthetic_array(n: int, chunks: int = 128):
     """The benchmark volume as a lazy ``(n, n, n)`` uint16 dask array (computed chunk by chunk)."""
     import dask.array as da
@@ -64,22 +70,31 @@ def synthetic_array(n: int, chunks: int = 128):
                          chunks=da.core.normalize_chunks((chunks,) * 3, (n, n, n)))
 
 
-def synthetic_store(path: Path, n: int, *, chunks: int = 128, progress: ProgressCallback = None) -> Path:
-    """Write (once) the synthetic volume as OME-Zarr at ``path`` (0.1 mm voxels); reused when present."""
-    from ..io.zarr import write_ome_zarr
+def synthetic_store(path: Path, n: int, *, chunks: int = 128, workers: int = 2,
+                    progress: ProgressCallback = None) -> Path:
+    """Write (once) the synthetic volume as OME-Zarr at ``path`` (0.1 mm voxels); reused when present.
+
+    Each chunk is computed from the formula in one of ``workers`` processes and written straight to the store; the
+    pyramid levels are block means of the stored level above, chunk by chunk (:mod:`app.io.zarr_blocks`)."""
+    from functools import partial
+
+    from ..io.zarr_blocks import write_ome_zarr_blocks
 
     if path.exists():
         return path
-    return write_ome_zarr(synthetic_array(n, chunks), path, spacing=(0.1, 0.1, 0.1), chunks=chunks,
-                          progress=progress)
+    return write_ome_zarr_blocks(partial(synthetic_block, n), (n, n, n), np.uint16, path, spacing=(0.1, 0.1, 0.1),
+                                 chunks=chunks, workers=workers, progress=progress)
 
 
-def peak_of_tree(arguments: list[str], *, interval: float = 0.05) -> dict[str, Any]:
-    """Run a command; the peak of the summed RSS of it and all its descendants, and the sum of their own peaks."""
+def peak_of_tree(arguments: list[str], *, interval: float = 0.05, stderr=subprocess.PIPE) -> dict[str, Any]:
+    """Run a command; the peak of the summed RSS of it and all its descendants, and the sum of their own peaks.
+
+    ``stderr``: where the command's standard error goes (captured by default; a terminal's descriptor shows its
+    progress line)."""
     import psutil
 
     start = time.perf_counter()
-    process = subprocess.Popen(arguments, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen(arguments, stdout=subprocess.PIPE, stderr=stderr, text=True)
     root = psutil.Process(process.pid)
     peaks: dict[int, int] = {}
     peak_all = [0]
@@ -112,8 +127,9 @@ def peak_of_tree(arguments: list[str], *, interval: float = 0.05) -> dict[str, A
             "stdout": stdout, "stderr": stderr}
 
 
-def _mesh_row(name: str, arguments: list[str], size: int, workers: int, volume_mib: float) -> dict[str, Any]:
-    measured = peak_of_tree(arguments)
+def _mesh_row(name: str, arguments: list[str], size: int, workers: int, volume_mib: float,
+              **options) -> dict[str, Any]:
+    measured = peak_of_tree(arguments, **options)
     row = {"command": name, "workers": workers, "size": size, "volume_mib": volume_mib,
            **{k: measured[k] for k in ("peak_all_mib", "sum_of_peaks_mib", "seconds", "exit_code")}}
     if measured["exit_code"] == 0:
@@ -122,7 +138,7 @@ def _mesh_row(name: str, arguments: list[str], size: int, workers: int, volume_m
         row.update(triangles=data["triangles"], points=data["points"], mesh_seconds=chunked.get("mesh_seconds"),
                    blocks_meshed=chunked.get("blocks_meshed"), blocks_skipped=chunked.get("blocks_skipped"))
     else:
-        row["error"] = measured["stderr"].strip().splitlines()[-1:]
+        row["error"] = (measured["stderr"] or "").strip().splitlines()[-1:]
     return row
 
 

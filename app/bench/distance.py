@@ -6,7 +6,9 @@
    (for the source's 346 k armadillo); the models of :mod:`app.bench.voxelise`. ``band_s`` is the band alone (the
    source's "inner loop only"), ``total_s`` with the sign (voxelisation). Source: GeForce GT 130.
 2. **Full fields** with ``--outside propagate`` at 128^3, 256^3, 512^3 (quick: 64^3, 128^3) for the 100 k and
-   1.09 M-triangle skulls (quick: 100 k only); band 2 voxels.
+   1.09 M-triangle skulls (quick: 100 k only; 512^3 for the 100 k one only); band 2 voxels. The 1.09 M mesh is
+   the marching-cubes skull of the sample CT, decimated and subdivided (no mesh of ~1 M triangles is in
+   ``../shared/data/meshes/``).
 3. **Errors**: our band distances against ``vtkImplicitPolyDataDistance`` at 10,000 random band voxels; the
    propagated distances against it at 10,000 random far voxels (in voxels); analytic sphere and torus.
 4. **CSG**: a torus minus a sphere at 256^3 (quick: 128^3): our boolean + marching cubes (fields made), against
@@ -40,6 +42,8 @@ TARGETS = {"full 256^3, 1 M triangles (s)": 10.0, "full 256^3, 100 k triangles (
            "10 % band 256^3, 346 k triangles (s)": 5.0, "propagation error (voxels)": 0.05,
            "CSG boolean + marching cubes 256^3 (s)": 0.1, "CSG volume vs manifold3d (relative)": 0.005}
 SAMPLES = 10_000
+#: The 512^3 full field is run for meshes up to this many triangles only (the 1.09 M one takes minutes per call).
+MAX_TRIANGLES_AT_512 = 500_000
 
 
 def _world(grid, flat):
@@ -97,6 +101,10 @@ def _full_rows(meshes, sizes, keys, repeats, progress) -> list[dict[str, Any]]:
     for model, key in models:
         points, triangles = meshes[key]
         for size in sizes:
+            if size > 256 and len(triangles) > MAX_TRIANGLES_AT_512:
+                rows.append({"model": model, "triangles": len(triangles), "size": size,
+                             "note": "not run: over a minute per call at this size on 2 cores (see the docs)"})
+                continue
             grid = cube_grid(points, size)
             band_mm = 2.0 * grid.spacing[0]
             run = lambda: signed_distance(points, triangles, grid, band_mm=band_mm, outside="propagate")  # noqa: E731
@@ -113,7 +121,8 @@ def _full_rows(meshes, sizes, keys, repeats, progress) -> list[dict[str, Any]]:
                          "far_max_error_voxels": err_max / grid.spacing[0],
                          "far_mean_error_voxels": err_mean / grid.spacing[0],
                          "band_max_error_voxels": band_max / grid.spacing[0],
-                         "passes": len(field.stats.get("changes_per_pass", []))})
+                         "levels": field.stats.get("levels", 1),
+                         **{f"outside_{k}_s": v for k, v in field.stats.get("propagation_seconds", {}).items()}})
             del field
             done += 1
             report(progress, 0.4 + 0.35 * done / steps)
@@ -167,6 +176,11 @@ def _csg_rows(size, repeats) -> list[dict[str, Any]]:
     boolean, field = time_call(lambda: combine([ft, fs], "difference"), repeats=repeats)
     meshing, ours = time_call(lambda: mesh_field(field, grid), repeats=repeats)
     both, _ = time_call(lambda: mesh_field(combine([ft, fs], "difference"), grid), repeats=repeats)
+    # the marching cubes core alone, on the array mesh_field hands it (negated, padded by one voxel)
+    from algorithms.surfaces.marching_cubes import marching_cubes
+
+    padded = np.pad(np.negative(field), 1, constant_values=np.float32(-float(field.max()) - 1.0))
+    core, _ = time_call(lambda: marching_cubes(padded, 0.0, spacing=grid.spacing), repeats=repeats)
     rows = []
     surfaces = []
 
@@ -178,7 +192,7 @@ def _csg_rows(size, repeats) -> list[dict[str, Any]]:
                      "boundary_edges": edges.boundary_edges, **(extra or {})})
 
     row("ours (boolean + marching cubes)", both.median, ours.points, ours.triangles,
-        {"boolean_s": boolean.median, "meshing_s": meshing.median})
+        {"boolean_s": boolean.median, "meshing_s": meshing.median, "marching_cubes_core_s": core.median})
     reference = None
     try:
         start = time.perf_counter()
@@ -248,7 +262,7 @@ def _plot(band, full, path: Path) -> Path:
              title=f"exact band at {band[0]['size'] if band else ''}^3")
     left.legend(fontsize=7)
     for model in dict.fromkeys(r["model"] for r in full):
-        rows = [r for r in full if r["model"] == model]
+        rows = [r for r in full if r["model"] == model and "median_s" in r]
         right.plot([r["size"] for r in rows], [r["median_s"] for r in rows], "o-", label=model)
     right.set(xlabel="grid size n (n^3 voxels)", ylabel="seconds (median)", yscale="log",
               title="full field, propagated")

@@ -18,6 +18,7 @@ MINC 2 files are HDF5 and need h5py (a dependency).
 from __future__ import annotations
 
 import gzip
+import threading
 import warnings
 import zlib
 from pathlib import Path
@@ -34,13 +35,44 @@ from .safety import inflate_prefix, one_line, product, require_fits, require_reg
 _NIFTI1, _NIFTI2 = 348, 540
 
 
+_NIBABEL_IMPORT = threading.Lock()
+
+
+def _nibabel():
+    """nibabel, imported (the first time) without pydicom.
+
+    ``nibabel.nifti1`` imports pydicom, if installed, only to decode DICOM header extensions (code 2) into datasets;
+    pydicom in turn imports requests, Pillow and its JPEG plug-ins: about 17 MiB of resident memory in every process
+    that reads a NIfTI file (issue 20: the memory of ``render --mode raymarch`` counts it). We never read those
+    extensions, so when neither is imported yet nibabel is imported with pydicom hidden and keeps DICOM extensions as
+    raw bytes (its documented behaviour without pydicom); pydicom itself imports normally afterwards, and if it is
+    already loaded (a DICOM folder was read first) nibabel uses it as usual.
+    """
+    import sys
+
+    if "nibabel" in sys.modules or "pydicom" in sys.modules:
+        import nibabel
+
+        return nibabel
+    with _NIBABEL_IMPORT:
+        hidden = "pydicom" not in sys.modules
+        if hidden:
+            sys.modules["pydicom"] = None  # ``import pydicom`` raises ImportError while this is set
+        try:
+            import nibabel
+        finally:
+            if hidden and sys.modules.get("pydicom", 0) is None:
+                del sys.modules["pydicom"]
+    return nibabel
+
+
 def _gzipped(path: Path) -> bool:
     return path.name.lower().endswith(".gz")
 
 
 def _header_class(block: bytes, path: Path):
     """The nibabel header class for the first bytes of a file (NIfTI-1, NIfTI-2 or Analyze)."""
-    import nibabel
+    nibabel = _nibabel()
 
     if len(block) < 4:
         raise CorruptFileError(path, f"the file holds {len(block)} bytes, too few for a NIfTI or Analyze header")
@@ -151,7 +183,7 @@ def _read_single(path: Path):
     except (OSError, EOFError, zlib.error) as exc:
         raise CorruptFileError(path, f"the file cannot be read ({one_line(exc)})", "Re-export or re-copy it") from exc
     header, shape, dtype, offset, size = _parse_header(block, path, warn)
-    import nibabel
+    nibabel = _nibabel()
 
     if not isinstance(header, nibabel.Nifti1Header):  # Nifti2Header is a subclass
         raise CorruptFileError(path, "the NIfTI magic ('n+1' at byte 344) is missing or damaged",
@@ -242,7 +274,7 @@ def _read_pair(path: Path):
                                            f"{offset} bytes need {offset + total_bytes} ({state})",
                                "Keep the .hdr and .img of the same image together")
     require_fits(image_path, volume_bytes, f"the first volume of {described}")
-    import nibabel
+    nibabel = _nibabel()
 
     fmt = "NIfTI pair" if isinstance(header, nibabel.Nifti1Header) else "Analyze"
     return _read_with_nibabel(header_path, fmt, warn)
@@ -250,7 +282,7 @@ def _read_pair(path: Path):
 
 def _read_with_nibabel(path: Path, fmt: str, warn: list[str] | None = None):
     """Pairs and MINC: nibabel's image classes, after the checks; the first 3D volume only."""
-    import nibabel
+    nibabel = _nibabel()
 
     warn = [] if warn is None else warn
     require_regular_file(path)
@@ -311,7 +343,7 @@ def _read_with_nibabel(path: Path, fmt: str, warn: list[str] | None = None):
 
 def write_nifti(volume, path, *, overwrite: bool = False) -> Path:
     """Write a NIfTI-1 file (``.nii`` or ``.nii.gz``) with an RAS sform and qform (code 1, scanner)."""
-    import nibabel
+    nibabel = _nibabel()
 
     path = Path(path)
     affine = FLIP4 @ volume.affine

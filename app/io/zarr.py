@@ -36,6 +36,7 @@ import json
 import os
 import shutil
 import uuid
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -343,6 +344,16 @@ def _pyramid_shapes(shape, min_size: int) -> list[tuple[int, int, int]]:
     return shapes
 
 
+def _create_levels(group, shapes, chunks: int, dtype, codec, zarr_format: int) -> list:
+    arrays = []
+    for n, shape in enumerate(shapes):
+        block = tuple(min(chunks, s) for s in shape)
+        kwargs = {"dimension_names": ("z", "y", "x")} if zarr_format == 3 else {}
+        arrays.append(group.create_array(str(n), shape=shape, chunks=block, dtype=dtype, compressors=codec,
+                                         fill_value=0, **kwargs))
+    return arrays
+
+
 def _halved(array):
     """Mean of 2x2x2 blocks (trailing odd samples dropped), in the array's type (rounded for integers)."""
     import dask.array as da
@@ -370,6 +381,30 @@ def _compute(tasks, progress, start: float, stop: float) -> list:
 
     with _Progress():
         return dask.compute(*tasks, scheduler="threads")
+
+
+def _datasets(shapes, spacing, origin) -> list[dict]:
+    datasets = []
+    for n in range(len(shapes)):
+        factor = 2.0 ** n
+        datasets.append({"path": str(n), "coordinateTransformations": [
+            {"type": "scale", "scale": (spacing * factor)[::-1].tolist()},
+            {"type": "translation", "translation": (origin + (factor - 1) / 2 * spacing)[::-1].tolist()}]})
+    return datasets
+
+
+def _write_attributes(group, path, datasets, spacing, origin, direction, modality, units, chunk_range,
+                      zarr_format) -> None:
+    axes = [{"name": name, "type": "space", "unit": "millimeter"} for name in ("z", "y", "x")]
+    multiscale = {"axes": axes, "datasets": datasets, "name": path.name.split(".")[0], "type": "mean"}
+    ours = {"spacing": spacing.tolist(), "origin": origin.tolist(), "direction": direction.tolist(),
+            "modality": modality, "units": units,
+            "value_range": [float(chunk_range[..., 0].min()), float(chunk_range[..., 1].max())],
+            "chunk_range": "chunk_range"}
+    if zarr_format == 2:
+        group.attrs.update({"multiscales": [{"version": "0.4", **multiscale}], "voxelscope": ours})
+    else:
+        group.attrs.update({"ome": {"version": "0.5", "multiscales": [multiscale]}, "voxelscope": ours})
 
 
 def write_ome_zarr(array, path, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), direction=None,
@@ -420,20 +455,10 @@ def write_ome_zarr(array, path, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.
     spacing = np.asarray(spacing, float)
     origin = np.asarray(origin, float)
     direction = np.eye(3) if direction is None else np.asarray(direction, float).reshape(3, 3)
-    temporary = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
-    try:
+    with written_in_place(path) as temporary:
         group = zarr.open_group(temporary, mode="w", zarr_format=zarr_format)
-        level_arrays = []
-        datasets = []
-        for n, shape in enumerate(shapes):
-            block = tuple(min(chunks, s) for s in shape)
-            kwargs = {"dimension_names": ("z", "y", "x")} if zarr_format == 3 else {}
-            level_arrays.append(group.create_array(str(n), shape=shape, chunks=block, dtype=dtype,
-                                                   compressors=codec, fill_value=0, **kwargs))
-            factor = 2.0 ** n
-            datasets.append({"path": str(n), "coordinateTransformations": [
-                {"type": "scale", "scale": (spacing * factor)[::-1].tolist()},
-                {"type": "translation", "translation": (origin + (factor - 1) / 2 * spacing)[::-1].tolist()}]})
+        level_arrays = _create_levels(group, shapes, chunks, dtype, codec, zarr_format)
+        datasets = _datasets(shapes, spacing, origin)
         # Level 0 and the range of each of its chunks in one pass over the source.
         level0 = source.rechunk(level_arrays[0].chunks)
         ranges = level0.map_blocks(lambda b: np.array([[[[b.min(), b.max()]]]], dtype=np.float64),
@@ -450,28 +475,31 @@ def write_ome_zarr(array, path, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.
             _compute([da.store(halved, level_arrays[n], lock=False, compute=False)], progress,
                      share + (1 - share) * (n - 1) / (len(shapes) - 1),
                      share + (1 - share) * n / (len(shapes) - 1))
-        axes = [{"name": name, "type": "space", "unit": "millimeter"} for name in ("z", "y", "x")]
-        multiscale = {"axes": axes, "datasets": datasets, "name": path.name.split(".")[0], "type": "mean"}
-        ours = {"spacing": spacing.tolist(), "origin": origin.tolist(), "direction": direction.tolist(),
-                "modality": modality, "units": units,
-                "value_range": [float(chunk_range[..., 0].min()), float(chunk_range[..., 1].max())],
-                "chunk_range": "chunk_range"}
-        if zarr_format == 2:
-            group.attrs.update({"multiscales": [{"version": "0.4", **multiscale}], "voxelscope": ours})
-        else:
-            group.attrs.update({"ome": {"version": "0.5", "multiscales": [multiscale]}, "voxelscope": ours})
+        _write_attributes(group, path, datasets, spacing, origin, direction, modality, units, chunk_range,
+                          zarr_format)
+    if progress is not None:
+        progress(1.0)
+    return path
+
+
+
+@contextmanager
+def written_in_place(path: Path):
+    """A temporary store path beside ``path``, moved to ``path`` (replacing what was there) when the block ends
+    without error; on any error it is removed and an ``OSError`` becomes a :class:`VolumeWriteError` naming ``path``.
+    """
+    temporary = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
+    try:
+        yield temporary
         if path.exists():
             shutil.rmtree(path) if path.is_dir() else path.unlink()
         os.replace(temporary, path)
     except BaseException as exc:
         shutil.rmtree(temporary, ignore_errors=True)
-        if isinstance(exc, (OSError,)):
+        if isinstance(exc, OSError):
             raise VolumeWriteError(f"{path}: could not write the OME-Zarr store ({exc}); check the free space "
                                    "and permissions") from exc
         raise
-    if progress is not None:
-        progress(1.0)
-    return path
 
 
 def save_zarr(volume: Volume, path, *, overwrite: bool = False, **options) -> Path:

@@ -4,6 +4,12 @@ It builds the same :class:`~app.pipeline.view.ViewPipeline` a window view builds
 :class:`~app.pipeline.jobs.ImmediateRunner`, so a PNG shows exactly what a view shows. The JSON report carries the
 same fields for every mode: the set-up seconds (surface extraction, mapper set-up, classification and encodings,
 first frame) apart from the per-frame seconds of a turning camera.
+
+Modes whose picture is our software renderer's frame alone (``picture_is_frame`` of their content: ray marching,
+shear-warp, slicing composited by us) render into a :class:`~app.pipeline.offscreen.FrameScene`: no render window,
+no OpenGL context, no VTK rendering module, the frame taken as it is - the same pixels an OpenGL render of the frame
+as background reads back, without the ~80 MiB of a Mesa context and the ~12 MiB of ``vtkRenderingCore`` (issue
+20). Every other mode renders in an :class:`~app.pipeline.offscreen.OffscreenScene`.
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ from algorithms.common.progress import ProgressCallback
 from .cameras import default_camera, turning_cameras
 from .content import ViewInputs
 from .jobs import ImmediateRunner
-from .offscreen import DEFAULT_SIZE, OffscreenScene
+from .offscreen import DEFAULT_SIZE, FrameScene, OffscreenScene
 from .timing import FrameTimes
 from .view import ViewPipeline
 
@@ -62,17 +68,25 @@ class RenderReport:
 
 
 def view_inputs(item, *, iso=None, preset=None, shading=None, sample_distance=None, background=(0.0, 0.0, 0.0),
-                interactive=False) -> ViewInputs:
-    """The inputs a view starts from for an item: its default isovalue and transfer function unless given."""
-    from ..meshing import default_iso
+                interactive=False, uses_iso: bool = True) -> ViewInputs:
+    """The inputs a view starts from for an item: its default isovalue and transfer function unless given.
+
+    ``uses_iso=False`` (a render whose content never reads the isovalue: our software renderers) leaves an isovalue
+    that is not given at 0 instead of working out the default (which imports the meshing code and, for volumes not
+    in HU, takes a percentile pass over the data).
+    """
     from ..transfer import transfer_function_for
 
     volume = getattr(item, "volume", None)
     function = transfer_function_for(volume, preset, shading=shading) if volume is not None else None
     if iso is None:
         iso = getattr(item, "iso", None) if volume is not None and hasattr(item, "role") else None
-        iso = iso if iso is not None else (default_iso(volume) if volume is not None else 0.0)
-    return ViewInputs(item, float(iso), function, sample_distance, tuple(background), interactive)
+        if iso is None and volume is not None and uses_iso:
+            from ..meshing import default_iso
+
+            iso = default_iso(volume)
+    return ViewInputs(item, float(iso if iso is not None else 0.0), function, sample_distance, tuple(background),
+                      interactive)
 
 
 def render_item(item, settings: RenderSettings, *, progress: ProgressCallback = None) -> RenderReport:
@@ -88,8 +102,10 @@ def render_item(item, settings: RenderSettings, *, progress: ProgressCallback = 
     if mode.capabilities.parallel_only and not settings.parallel and settings.camera is None:
         raise ValueError(f"mode {mode.name!r} renders with parallel projection only; add --parallel")
     options = mode.resolve_options(settings.options)
+    frame_only = picture_is_frame(mode, options)
     inputs = view_inputs(item, iso=settings.iso, preset=settings.preset, shading=settings.shading,
-                         sample_distance=settings.sample_distance, background=settings.background)
+                         sample_distance=settings.sample_distance, background=settings.background,
+                         uses_iso=not frame_only or mode.capabilities.uses_iso)
     if settings.tools:
         if not mode.capabilities.accepts_selection:
             raise ValueError(f"mode {mode.name!r} does not honour cut-away tools (--cut); modes that do: "
@@ -123,7 +139,7 @@ def render_item(item, settings: RenderSettings, *, progress: ProgressCallback = 
     if mode.output in ("volume", "image", "comparison") and hasattr(item, "volume"):
         info["sample_distance_mm"] = inputs.effective_sample_distance()
 
-    scene = OffscreenScene((width, height), settings.background)
+    scene = (FrameScene if frame_only else OffscreenScene)((width, height), settings.background)
     pipeline = ViewPipeline(scene.renderer, ImmediateRunner(progress), lambda: (width, height))
     try:
         start = time.perf_counter()
@@ -155,6 +171,12 @@ def render_item(item, settings: RenderSettings, *, progress: ProgressCallback = 
         pipeline.shutdown()
         scene.close()
     return RenderReport(image, info, frame)
+
+
+def picture_is_frame(mode, options) -> bool:
+    """Whether ``mode`` with ``options`` shows our software renderer's frame and nothing drawn by VTK (its content
+    class says so with ``picture_is_frame``), so it renders without an OpenGL context."""
+    return bool(getattr(type(mode.create_content(options)), "picture_is_frame", False))
 
 
 def _selection_modes() -> list:

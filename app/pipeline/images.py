@@ -28,6 +28,7 @@ from algorithms.common.vtk_bridge import run_algorithm
 
 from .cameras import camera_in_frame
 from .content import IGNORE, REBUILD, REFRAME, Frame, ViewContent, ViewInputs
+from .offscreen import FrameRenderer
 
 #: Frame statistics shown in the view's header, in this order, and how.
 _SHOWN_STATS = {
@@ -48,11 +49,19 @@ def frame_camera(mode, camera: Camera, inputs: ViewInputs) -> Camera:
 
 
 def rgba_to_rgb(rgba: np.ndarray, background) -> np.ndarray:
-    """An ``(h, w, 4)`` uint8 premultiplied image (row 0 at the top) over a background colour, as uint8 RGB."""
-    colour = rgba[..., :3].astype(np.float32)
-    alpha = rgba[..., 3:4].astype(np.float32) / 255.0
+    """An ``(h, w, 4)`` uint8 premultiplied image (row 0 at the top) over a background colour, as uint8 RGB.
+
+    In float32, ``colour + (1 - alpha / 255) * background * 255`` rounded, in one work buffer (no temporaries).
+    """
     back = np.asarray(background, dtype=np.float32).reshape(1, 1, 3) * 255.0
-    return np.clip(np.rint(colour + (1.0 - alpha) * back), 0, 255).astype(np.uint8)
+    transparency = rgba[..., 3:4].astype(np.float32)
+    transparency /= 255.0
+    np.subtract(1.0, transparency, out=transparency)
+    out = np.multiply(transparency, back)
+    out += rgba[..., :3]
+    np.rint(out, out=out)
+    np.clip(out, 0, 255, out=out)
+    return out.astype(np.uint8)
 
 
 def filter_frame(algorithm, camera: Camera, size: tuple[int, int], background, progress=None, *,
@@ -89,6 +98,9 @@ class RendererContent(ViewContent):
     """One of our software renderers, run through its VTK filter (jitter passes accumulated while idle)."""
 
     uses_frames = True
+    #: The picture is the frame alone (shown as the renderer's background, nothing drawn by VTK), so the command
+    #: line takes it without an OpenGL context (:class:`app.pipeline.offscreen.FrameScene`).
+    picture_is_frame = True
     filter = None
 
     def __init__(self, mode, options) -> None:
@@ -134,14 +146,17 @@ class RendererContent(ViewContent):
         local = frame_camera(self.mode, camera, inputs)
         background = tuple(inputs.background)
         key = _frame_key(local, size, background)
-        if key == self._key and 0 < self._passes_done < self.passes:
+        passes = self.passes
+        if key == self._key and 0 < self._passes_done < passes:
             pass_index, previous = self._passes_done, self._sum  # refine the frame on show
         else:
             pass_index, previous = 0, None
 
         def work(progress=None) -> Frame:
             frame = filter_frame(algorithm, local, size, background, progress, pass_index=pass_index)
-            total = frame.image.astype(np.float64) if previous is None else previous + frame.image
+            # The running sum is kept only when more passes will follow.
+            total = None if passes == 1 else (frame.image.astype(np.float64) if previous is None
+                                              else previous + frame.image)
             if pass_index > 0:
                 frame.image = np.clip(np.rint(total / (pass_index + 1)), 0, 255).astype(np.uint8)
             frame.stats["passes"] = pass_index + 1
@@ -157,7 +172,10 @@ class RendererContent(ViewContent):
 
     def show_frame(self, renderer, frame: Frame) -> None:
         self._key, self._passes_done, self._sum = frame.stats.pop("_accumulation", (None, 0, None))
-        super().show_frame(renderer, frame)
+        if isinstance(renderer, FrameRenderer):  # headless: the frame is the picture, kept as it is
+            renderer.show_frame(frame.image)
+        else:
+            super().show_frame(renderer, frame)
         self.stats = dict(frame.stats)
 
     def status(self) -> str:

@@ -21,8 +21,7 @@ from numba import njit, prange
 
 from ...common.pixel_rays import pixel_ray
 from ...common.sampling import cell_of, gradient, jitter_offset, sample_volume, second_jitter_offset, trilinear
-from ...common.selection import (cut_band, cut_normals_on, leap_distance, removal, removal_normal, tool_count,
-                                 visibility)
+from ...common.selection import cut_band, cut_normals_on, leap_at, removal, removal_normal, tool_count, visibility
 
 #: Lighting model codes shared with :mod:`algorithms.rendering.raymarch.core`.
 EMISSION = 0
@@ -312,9 +311,11 @@ def _render_row(
                     a *= visibility(tools, g)
                     on_cut = tool_normals and g < band
                     if a == 0.0:
-                        # Inside the removed region of exact-distance tools: leap over the samples that are surely
-                        # removed too (the selection's own empty-space skipping; strict, so none is kept).
-                        leap = min(int(math.ceil(leap_distance(tools, g) / sample_distance)) - 1, last - k)
+                        # Inside the removed region: leap over the samples that are surely removed too (the
+                        # selection's own empty-space skipping: shapes' distances, grid tools' depth tables; strict,
+                        # so none that could be kept is skipped).
+                        leap = min(int(math.ceil(leap_at(tools, x * sx, y * sy, z * sz) / sample_distance)) - 1,
+                                   last - k)
                         if leap > 0:
                             skipped += leap
                             k += leap + 1

@@ -120,6 +120,58 @@ def test_grid_tool_of_a_mask_with_a_transform_matches_the_shape_it_was_made_from
     assert (from_grid != analytic).sum() <= 0.1 * analytic.sum()
 
 
+def _leap_case(mode, evaluation):
+    """A wedge-cut ball mask on a coarse grid, rotated and scaled anisotropically, with points around it."""
+    grid = Grid.around((-10, 10, -10, 10, -10, 10), spacing=(0.7, 0.7, 0.7), padding=2)
+    nx, ny, nz = grid.dimensions
+    k, j, i = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
+    points = grid.index_to_world(np.stack([i, j, k], axis=-1).reshape(-1, 3)).reshape(nz, ny, nx, 3)
+    mask = (np.linalg.norm(points, axis=-1) < 8.0) & ~((points[..., 0] > 2.0) & (points[..., 2] > 1.0))
+    transform = np.eye(4)
+    transform[:3, :3] = rotation_matrix((20, 35, 50)) @ np.diag([1.4, 0.9, 1.1])
+    transform[:3, 3] = (15.0, 40.0, 30.0)
+    tool = grid_tool(mask, grid, transform=transform, mode=mode)
+    return tool_set([tool], _frame(), evaluation=evaluation, width=0.5)  # below h = 0.7 mm: a mask can remove fully
+
+
+@pytest.mark.parametrize("mode", ["remove", "keep"])
+@pytest.mark.parametrize("evaluation", ["binary", "distance"])
+def test_grid_tool_leaps_stay_inside_the_removed_region(mode, evaluation):
+    # The leap of a grid tool (its depth table made once, scaled by the matrix's largest singular value) must be
+    # conservative: every point closer than the leap is still fully removed (g < 0, or g <= -width/2).
+    from algorithms.common.selection import leap_at
+
+    tools = _leap_case(mode, evaluation)
+    packed = tools.packed()
+    rng = np.random.default_rng(11)
+    centre = np.array([15.0, 40.0, 30.0]) - ORIGIN  # the tool's centre in the volume frame (mm)
+    starts = centre + rng.uniform(-14.0, 14.0, size=(4000, 3))
+    limit = 0.0 if evaluation == "binary" else -0.5 * tools.width
+    leaps = np.array([leap_at(packed, *p) for p in starts])
+    assert (leaps > 1.0).sum() > 50 and leaps.max() > 2.0, "the tool should allow leaps of more than 1 mm"
+    removed = removal_values(tools, starts)
+    assert np.all(removed[leaps > 0] <= limit if evaluation == "distance" else removed[leaps > 0] < limit)
+    chosen = np.flatnonzero(leaps > 0)
+    directions = rng.normal(size=(len(chosen), 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    for fraction in (0.25, 0.5, 0.75, 0.999):
+        ends = starts[chosen] + directions * (fraction * leaps[chosen])[:, None]
+        g = removal_values(tools, ends)
+        assert np.all(g <= limit if evaluation == "distance" else g < limit), (
+            f"{int((g > limit).sum())} points within the leap are not removed")
+
+
+def test_grid_tool_depth_tables_are_made_once_and_follow_the_tool():
+    tools = _leap_case("remove", "binary")
+    grid = Grid.around((-5, 5, -5, 5, -5, 5), spacing=(1.0, 1.0, 1.0), padding=1)
+    tool = grid_tool(np.ones(grid.shape, bool), grid)
+    assert tool.leap_depths().max() > 1.0  # a full mask: deep inside, the ray may leap
+    moved = tool.moved(centre=(3.0, 4.0, 5.0))
+    assert moved.leap_depths() is tool.leap_depths()  # the table is not made again when the tool moves
+    assert tool.moved(mode="keep").leap_depths() is not tool.leap_depths()  # another mode: another table
+    assert tools.grid_leaps.shape == tools.grid_values.shape
+
+
 def test_distance_normals_follow_the_sphere():
     tools = tool_set([sphere_tool((0.0, 0.0, 0.0), 10.0)], evaluation="distance")
     rng = np.random.default_rng(3)
