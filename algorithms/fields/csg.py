@@ -38,7 +38,7 @@ import numpy as np
 from numba import njit, prange
 
 
-__all__ = ["OPERATIONS", "combine", "isosurface_field"]
+__all__ = ["OPERATIONS", "combine", "isosurface_field", "negated_padded"]
 
 OPERATIONS = ("union", "intersection", "difference")
 
@@ -126,6 +126,41 @@ def combine(fields: Sequence[np.ndarray], operation: str, *, blend_mm: float = 0
             if not np.all(np.isfinite(f)):
                 raise ValueError(f"field {n} holds NaN or infinite values; CSG needs finite distances (clamp or "
                                  "propagate them)")
+    return out
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _negate_into(out, values, slice_max):
+    """``out[1:-1, 1:-1, 1:-1] = -values`` and each slice's largest value into ``slice_max``, in one pass."""
+    nz, ny, nx = values.shape
+    for k in prange(nz):
+        top = -np.inf
+        for j in range(ny):
+            for i in range(nx):
+                v = values[k, j, i]
+                out[k + 1, j + 1, i + 1] = -v
+                if v > top:
+                    top = v
+        slice_max[k] = top
+
+
+def negated_padded(values: np.ndarray, level: float = 0.0) -> np.ndarray:
+    """``-values`` in float32, padded by one sample on every side with ``-(max(values.max(), level) + 1)``: a
+    field (negative inside) turned into what marching cubes meshes at ``-level`` (inside at values >= the level,
+    triangles facing away from it), closed at the grid's border by the padding. One pass over the field (the
+    negation, the copy into the padded array and the maximum together) instead of three."""
+    values = np.ascontiguousarray(values, dtype=np.float32)
+    if values.ndim != 3 or 0 in values.shape:
+        raise ValueError(f"a field must be a non-empty 3-D array (nz, ny, nx), got shape {values.shape}")
+    nz, ny, nx = values.shape
+    out = np.empty((nz + 2, ny + 2, nx + 2), dtype=np.float32)
+    slice_max = np.empty(nz, dtype=np.float32)
+    _negate_into(out, values, slice_max)
+    top = float(slice_max.max())  # NaN samples are skipped here; marching cubes refuses them inside the field
+    outside = np.float32(-(max(top, float(level)) + 1.0))
+    out[0], out[-1] = outside, outside
+    out[:, 0], out[:, -1] = outside, outside
+    out[:, :, 0], out[:, :, -1] = outside, outside
     return out
 
 

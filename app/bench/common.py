@@ -13,7 +13,14 @@ from typing import Any, Iterable, Sequence
 
 from algorithms.common.camera import Camera
 
-from ..pipeline import FrameTimes, OffscreenScene, Timing, time_call  # noqa: F401 - re-exported for the benchmarks
+from ..pipeline import (  # noqa: F401 - re-exported for the benchmarks
+    FrameTimes,
+    OffscreenScene,
+    Timing,
+    paired_ratio,
+    time_call,
+    time_interleaved,
+)
 from ..pipeline.props import volume_prop
 
 

@@ -47,15 +47,19 @@ def _nibabel():
     extensions, so when neither is imported yet nibabel is imported with pydicom hidden and keeps DICOM extensions as
     raw bytes (its documented behaviour without pydicom); pydicom itself imports normally afterwards, and if it is
     already loaded (a DICOM folder was read first) nibabel uses it as usual.
+
+    The hiding is done only while this is the process's one Python thread (the command line): in a process with
+    other threads (the window, Dask workers) one of them could import pydicom during those milliseconds and fail,
+    so there nibabel is imported as it is.
     """
     import sys
 
-    if "nibabel" in sys.modules or "pydicom" in sys.modules:
+    if "nibabel" in sys.modules or "pydicom" in sys.modules or threading.active_count() > 1:
         import nibabel
 
         return nibabel
     with _NIBABEL_IMPORT:
-        hidden = "pydicom" not in sys.modules
+        hidden = "pydicom" not in sys.modules and threading.active_count() == 1
         if hidden:
             sys.modules["pydicom"] = None  # ``import pydicom`` raises ImportError while this is set
         try:

@@ -249,15 +249,15 @@ def mesh_field(values: np.ndarray, grid, *, offset_mm: float = 0.0,
     cap within one voxel outside the grid instead of an open rim.
     """
     from algorithms.common.progress import report
+    from algorithms.fields.csg import negated_padded
     from algorithms.surfaces.marching_cubes import marching_cubes
 
     start = time.perf_counter()
     values = np.asarray(values)
     if values.shape != grid.shape:
         raise ValueError(f"a field of shape {values.shape} does not fit a grid of shape {grid.shape}")
-    # marching cubes puts inside at value >= level and faces away from it: negate the field
-    outside = -float(max(np.max(values), offset_mm) + 1.0)
-    padded = np.pad(np.negative(values, dtype=np.float32), 1, constant_values=np.float32(outside))
+    # marching cubes puts inside at value >= level and faces away from it: negate the field (and pad it)
+    padded = negated_padded(values, offset_mm)
     mesh = marching_cubes(padded, -float(offset_mm), spacing=grid.spacing,
                           origin=tuple(-np.asarray(grid.spacing)), progress=progress)
     direction = grid.direction_matrix

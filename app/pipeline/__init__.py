@@ -13,12 +13,13 @@ from .content import Frame, ViewContent, ViewInputs
 from .headless import RenderReport, RenderSettings, parse_background, render_item, view_inputs
 from .jobs import ImmediateRunner, JobRunner
 from .offscreen import OffscreenScene, read_png, write_png
-from .timing import FrameTimes, Timing, time_call
+from .timing import FrameTimes, Timing, paired_ratio, time_call, time_interleaved
 from .view import ViewPipeline
 
 __all__ = [
     "STANDARD_VIEWS", "camera_in_frame", "default_camera", "fit_camera", "turning_cameras", "Frame", "ViewContent",
     "ViewInputs", "RenderReport", "RenderSettings", "parse_background", "render_item", "view_inputs",
     "ImmediateRunner", "JobRunner", "OffscreenScene", "read_png", "write_png", "FrameTimes", "Timing", "time_call",
+    "time_interleaved", "paired_ratio",
     "ViewPipeline",
 ]

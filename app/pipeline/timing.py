@@ -11,7 +11,7 @@ import gc
 import statistics
 import time
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 
 @dataclass
@@ -56,6 +56,33 @@ def time_call(function: Callable[[], Any], *, repeats: int = 5, warmup: int = 1)
         result = function()
         samples.append(time.perf_counter() - start)
     return Timing(samples), result
+
+
+def time_interleaved(functions: Sequence[Callable[[], Any]], *, repeats: int = 5,
+                     warmup: int = 1) -> tuple[list[Timing], list[Any]]:
+    """Time several functions in turns: each repeat calls every function once, the order rotating from repeat to
+    repeat, so a change of machine load during the run falls on all of them alike (comparisons of one against the
+    other stay fair). Returns one :class:`Timing` per function and each one's last result."""
+    functions = list(functions)
+    results: list[Any] = [None] * len(functions)
+    for _ in range(warmup):
+        for n, function in enumerate(functions):
+            results[n] = function()
+    samples: list[list[float]] = [[] for _ in functions]
+    for repeat in range(repeats):
+        for step in range(len(functions)):
+            n = (repeat + step) % len(functions)
+            gc.collect()
+            start = time.perf_counter()
+            results[n] = functions[n]()
+            samples[n].append(time.perf_counter() - start)
+    return [Timing(s) for s in samples], results
+
+
+def paired_ratio(numerator: Timing, denominator: Timing) -> float:
+    """The median over repeats of ``numerator / denominator`` taken within each repeat (for interleaved timings:
+    each repeat's two calls ran under the same load)."""
+    return statistics.median(a / b for a, b in zip(numerator.samples, denominator.samples))
 
 
 @dataclass

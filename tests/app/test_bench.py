@@ -143,6 +143,9 @@ def test_marching_cubes_bench_extracts_vtks_surface_and_times_every_method(tmp_p
                 int(row["triangles"]) / number(row, "median_s"), rel=ROUNDING)
             if row is not ours:
                 assert row["peak_mb"] == ""  # tracemalloc cannot see VTK's C++ allocations
+        # Ours and flying edges with threads are timed in turns; the others alone.
+        assert number(ours, "paired_ratio_to_ours") == 1.0 and number(group[methods[3]], "paired_ratio_to_ours") > 0
+        assert group[methods[1]]["paired_ratio_to_ours"] == group[methods[2]]["paired_ratio_to_ours"] == ""
     assert int(groups[("CT phantom", "300", "True")][methods[0]]["voxels"]) == 256 * 256 * 108  # full phantom
 
     data = check_run_json(files["marching_cubes.json"])
@@ -155,6 +158,20 @@ def test_marching_cubes_bench_extracts_vtks_surface_and_times_every_method(tmp_p
         group = groups[(entry["dataset"], f"{entry['iso']:.6g}", str(entry["normals"]))]
         assert entry["ratio"] == pytest.approx(number(group[methods[0]], "median_s")
                                                / number(group[methods[3]], "median_s"), rel=ROUNDING)
+        assert entry["paired_ratio"] == pytest.approx(1.0 / number(group[methods[3]], "paired_ratio_to_ours"),
+                                                      rel=ROUNDING)
+
+
+def test_interleaved_timing_rotates_the_order_and_pairs_the_repeats():
+    from app.pipeline.timing import Timing, paired_ratio, time_interleaved
+
+    calls = []
+    timings, results = time_interleaved([lambda: calls.append("a") or "A", lambda: calls.append("b") or "B"],
+                                        repeats=4, warmup=1)
+    assert calls == ["a", "b"] + ["a", "b", "b", "a", "a", "b", "b", "a"]  # warm-up, then the order alternates
+    assert results == ["A", "B"] and [len(t.samples) for t in timings] == [4, 4]
+    assert paired_ratio(Timing([2.0, 3.0, 10.0]), Timing([1.0, 1.0, 1.0])) == 3.0
+    assert paired_ratio(Timing([2.0, 6.0, 4.0]), Timing([1.0, 4.0, 1.0])) == 2.0  # not 4 / 1 of the medians
 
 
 # --------------------------------------------------------------------------------------------------------------

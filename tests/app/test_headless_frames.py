@@ -94,6 +94,26 @@ def test_a_raymarch_render_of_a_nifti_loads_no_vtk_rendering_and_no_pydicom(tmp_
     assert (tmp_path / "out.png").stat().st_size > 0
 
 
+def test_with_other_threads_running_nibabel_is_imported_as_it_is(tmp_path, item):
+    """Hiding pydicom is only safe while no other thread could import it meanwhile (the window, Dask workers)."""
+    from app.io import save_volume
+
+    path = save_volume(item.volume, tmp_path / "ct.nii")
+    code = (
+        "import json, sys, threading\n"
+        "stop = threading.Event()\n"
+        "threading.Thread(target=stop.wait, daemon=True).start()\n"
+        "from app.io import load_volume\n"
+        f"load_volume({str(path)!r})\n"
+        "import nibabel\n"
+        "print(json.dumps({'pydicom': 'pydicom' in sys.modules, 'nibabel_dicom': nibabel.nifti1.have_dicom}))\n"
+        "stop.set()\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert json.loads(result.stdout.strip().splitlines()[-1]) == {"pydicom": True, "nibabel_dicom": True}
+
+
 def test_a_single_pass_keeps_no_running_sum(item):
     from app.pipeline.images import RendererContent
     from app.pipeline.jobs import ImmediateRunner

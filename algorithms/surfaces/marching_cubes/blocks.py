@@ -34,7 +34,7 @@ import numpy as np
 
 from ...common.validation import validated_levels, validated_numeric_volume, validated_origin, validated_spacing
 from . import kernels
-from .core import _count, _inside_threshold, _numba_threads, _slab_bounds
+from .core import _count, _inside_threshold, _numba_threads
 
 __all__ = ["BlockMesh", "edge_keys_shape_limit", "marching_cubes_block"]
 
@@ -137,11 +137,10 @@ def marching_cubes_block(block, level, *, start, volume_shape, spacing=(1.0, 1.0
         scratch = np.empty((vertex_total, 3), dtype=np.float32)
         on_sample = np.empty(vertex_total, dtype=np.int64)
         triangles = np.empty((counts.triangle_total, 3), dtype=np.int64)
-        lengths = (counts.spans[:, :, 1] - counts.spans[:, :, 0] + 1).clip(min=0).sum(axis=1)
-        bounds = _slab_bounds(lengths + 1, numba.get_num_threads())
-        kernels.fill_layers(array, threshold, iso, bounds, counts.spans, vertex_first, triangle_first,
-                            kernels.PAIR_CASE, kernels.TRIANGLES, kernels.TRIANGLE_COUNT, spacing, np.zeros(3),
-                            scratch, np.empty((0, 3), np.float32), on_sample, triangles)
+        layers = np.arange(array.shape[0], dtype=np.int64)  # one layer of cells per work item
+        kernels.fill_layers(array, threshold, iso, layers, numba.get_num_threads(), counts.spans, vertex_first,
+                            triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES, kernels.TRIANGLE_COUNT, spacing,
+                            np.zeros(3), scratch, np.empty((0, 3), np.float32), on_sample, triangles)
     del scratch, on_sample, counts, vertex_first, triangle_first
     _, ny, nx = array.shape
     k, j, i, axis = _cut_edges(array >= threshold, ny, nx)

@@ -80,15 +80,6 @@ class MarchingCubesMesh(TriangleMesh):
     values_name: ClassVar[str] = "Isovalue"
 
 
-def _slab_bounds(work: np.ndarray, pieces: int) -> np.ndarray:
-    """Layer boundaries splitting the fill work (``work[k]`` per layer) into ``pieces`` slabs of about equal cost."""
-    layers = work.shape[0]
-    cumulative = np.cumsum(work)
-    targets = cumulative[-1] * np.arange(1, pieces) / pieces
-    inner = np.minimum(np.searchsorted(cumulative, targets) + 1, layers)
-    return np.concatenate(([0], inner, [layers])).astype(np.int64)
-
-
 def _inside_threshold(dtype: np.dtype, iso: float):
     """The isovalue in the volume's number type: ``value >= threshold`` exactly when ``float(value) >= iso``.
 
@@ -179,14 +170,12 @@ def _extract(array, iso, spacing, origin, with_normals, progress):
     normals = np.empty((vertex_total if with_normals else 0, 3), dtype=np.float32)
     on_sample = np.empty(vertex_total, dtype=np.int64)
     triangles = np.empty((triangle_total, 3), dtype=np.int64)
-    # Work per layer: the cells scanned (span lengths) and what is written (vertices, triangles).
-    lengths = (counts.spans[:, :, 1] - counts.spans[:, :, 0] + 1).clip(min=0).sum(axis=1)
-    work = lengths + 4 * counts.edges[:-1].sum(axis=(1, 2)) + 2 * counts.triangles.sum(axis=1) + 1
+    # One layer per work item: the threads take them one at a time, so no estimate of each layer's cost is needed.
     threads = numba.get_num_threads()
     rounds = int(np.clip(array.size // 8_000_000, 1, 8))
-    bounds = _slab_bounds(work, threads * rounds)
+    chunks = np.linspace(0, nz - 1, rounds + 1).astype(np.int64)
     for n in range(rounds):
-        kernels.fill_layers(array, threshold, iso, bounds[n * threads:(n + 1) * threads + 1], counts.spans,
+        kernels.fill_layers(array, threshold, iso, np.arange(chunks[n], chunks[n + 1] + 1), threads, counts.spans,
                             vertex_first, triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES,
                             kernels.TRIANGLE_COUNT, spacing, origin, points, normals, on_sample, triangles)
         report(progress, 0.3 + 0.65 * (n + 1) / rounds)

@@ -16,6 +16,13 @@ Implementation: two passes over the rows of cells, both parallel over layers of 
    the edge rows it owns (position, and the normal from central differences when asked) while the samples are in
    cache. A vertex that falls exactly on a sample is flagged for :func:`merge_on_samples`.
 
+Threads: each pass is one numba parallel region of one iteration per thread, and the threads take work items
+(layers, or slabs of layers) from a shared counter, one at a time (:func:`_take`, an atomic fetch-and-add) until
+none is left. A thread that the operating system slows down, or whose layers happen to be busy ones, simply takes
+fewer items: the split adapts while the pass runs, which a split fixed in advance (numba's ``prange``
+chunks are dealt out statically) cannot do. Any split gives the same output, since every row of cells knows where
+its vertices and triangles go from the prefix sums.
+
 Work memory besides the output: the spans and the per-row counts (a few bytes per row of samples), and a row of
 column codes per thread. The kernels take a block of samples and its place in the volume (``origin``) only, so a
 block of a larger volume can be meshed on its own.
@@ -24,7 +31,8 @@ block of a larger volume can be meshed on its own.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.extending import intrinsic
 
 from . import tables
 
@@ -99,6 +107,21 @@ def _owned(j, k, ny, nz):
     return j == ny - 2, k == nz - 2
 
 
+@intrinsic
+def _take(typingctx, counter, amount):
+    """Atomically add ``amount`` to ``counter[0]`` (a contiguous int64 array) and return its previous value: the
+    next work item for the calling thread. Sequentially consistent, so no two threads get the same item."""
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64 and isinstance(amount, types.Integer)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        array = context.make_array(signature.args[0])(context, builder, args[0])
+        value = context.cast(builder, args[1], signature.args[1], types.int64)
+        return builder.atomic_rmw("add", array.data, value, "seq_cst")
+
+    return types.int64(counter, amount), codegen
+
+
 @njit(cache=True, nogil=True, inline="always")
 def _column_codes(volume, threshold, k, j, codes):
     """Column codes of the row of cells ``(j, k)`` into ``codes`` (bit ``dj + 2 dk``: sample ``(j + dj, k + dk)``
@@ -133,15 +156,18 @@ def count_layers(volume, threshold, start, stop, parts, pair_case, triangle_coun
                  triangle_counts, flags):
     """Spans, owned cut-edge counts and triangle counts of the rows of cells of layers ``start..stop-1``.
 
-    The layers are dealt out to ``parts`` workers in turn (layer ``start + p``, ``start + p + parts``, ...), so
-    workers get about the same mix of empty and busy layers whatever the object's shape. ``flags[k]`` is set when a
-    sample of slice k is NaN (the last layer also checks the last slice). ``edge_counts`` must start at zero;
-    ``triangle_counts`` has shape ``(nz - 1, ny - 1)``.
+    ``parts`` threads take the layers one at a time from a shared counter (module notes). ``flags[k]`` is set
+    when a sample of slice k is NaN (the last layer also checks the last slice). ``edge_counts`` must start at
+    zero; ``triangle_counts`` has shape ``(nz - 1, ny - 1)``.
     """
     nz, ny, nx = volume.shape
-    for part in prange(parts):
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(parts):
         codes = np.empty(nx, dtype=np.uint8)
-        for k in range(start + part, stop, parts):
+        while True:
+            k = start + _take(queue, 1)
+            if k >= stop:
+                break
             _count_layer(volume, threshold, k, pair_case, triangle_count, spans, edge_counts, triangle_counts,
                          flags, codes)
 
@@ -340,24 +366,31 @@ def _fill_row(volume, threshold, iso, k, j, low, high, vertex_first, first_trian
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def fill_layers(volume, threshold, iso, bounds, spans, vertex_first, triangle_first, pair_case, triangle_table,
-                triangle_count, spacing, origin, points, normals, on_sample, triangles):
-    """Triangles and owned vertices of the layers ``bounds[s]..bounds[s+1]-1``, one slab ``s`` per iteration.
+def fill_layers(volume, threshold, iso, bounds, parts, spans, vertex_first, triangle_first, pair_case,
+                triangle_table, triangle_count, spacing, origin, points, normals, on_sample, triangles):
+    """Triangles and owned vertices of the layers ``bounds[0]..bounds[-1]-1``, in slabs ``bounds[s]..bounds[s+1]-1``
+    that ``parts`` threads take one at a time from a shared counter (module notes). Any split gives the same output.
 
     ``triangle_table`` holds id slots (:data:`TRIANGLES`); ``normals`` with zero rows skips the normals.
     """
     nz, ny, nx = volume.shape
-    for slab in prange(bounds.shape[0] - 1):
+    slabs = bounds.shape[0] - 1
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(parts):
         codes = np.empty(nx, dtype=np.uint8)
         ids = np.zeros(12, dtype=np.int64)
-        for k in range(bounds[slab], bounds[slab + 1]):
-            for j in range(ny - 1):
-                low = spans[k, j, 0]
-                high = spans[k, j, 1]
-                if low <= high:
-                    _fill_row(volume, threshold, iso, k, j, low, high, vertex_first, triangle_first[k, j],
-                              pair_case, triangle_table, triangle_count, spacing, origin, codes, ids, points,
-                              normals, on_sample, triangles)
+        while True:
+            slab = _take(queue, 1)
+            if slab >= slabs:
+                break
+            for k in range(bounds[slab], bounds[slab + 1]):
+                for j in range(ny - 1):
+                    low = spans[k, j, 0]
+                    high = spans[k, j, 1]
+                    if low <= high:
+                        _fill_row(volume, threshold, iso, k, j, low, high, vertex_first, triangle_first[k, j],
+                                  pair_case, triangle_table, triangle_count, spacing, origin, codes, ids, points,
+                                  normals, on_sample, triangles)
 
 
 @njit(cache=True, nogil=True)

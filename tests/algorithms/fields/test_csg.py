@@ -153,3 +153,18 @@ def test_bad_inputs_are_refused(two_spheres):
     bad[0, 0, 0] = np.inf
     with pytest.raises(ValueError, match="infinite"):
         combine([fa, bad], "union")
+
+
+def test_negated_padded_is_the_negated_field_with_a_closing_border():
+    from algorithms.fields.csg import negated_padded
+
+    rng = np.random.default_rng(3)
+    for dtype in (np.float32, np.float64):
+        field = rng.normal(0.0, 5.0, (7, 9, 11)).astype(dtype)
+        for level in (0.0, 2.5, 100.0):
+            as_float32 = field.astype(np.float32)
+            expected = np.pad(np.negative(as_float32), 1,
+                              constant_values=np.float32(-(max(float(np.max(as_float32)), level) + 1.0)))
+            np.testing.assert_array_equal(negated_padded(field, level), expected)
+    with pytest.raises(ValueError, match="3-D"):
+        negated_padded(np.zeros((4, 4)))

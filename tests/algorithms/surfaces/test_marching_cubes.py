@@ -435,14 +435,26 @@ def test_slab_partition_does_not_change_the_mesh():
     triangle_first = np.cumsum(counts.triangles.ravel()).reshape(counts.triangles.shape) - counts.triangles
     vertices, triangle_total = int(counts.edges.sum()), int(counts.triangles.sum())
     results = []
-    for bounds in ([0, 11], [0, 1, 1, 4, 5, 9, 11, 11], [0, 0, 11], list(range(12))):
+    for bounds, parts in (([0, 11], 1), ([0, 1, 1, 4, 5, 9, 11, 11], 2), ([0, 0, 11], 3), (list(range(12)), 2),
+                          (list(range(12)), 5)):
         points = np.full((vertices, 3), np.nan, dtype=np.float32)
         on_sample = np.full(vertices, -7, dtype=np.int64)
         triangles = np.full((triangle_total, 3), -1, dtype=np.int64)
-        kernels.fill_layers(field, threshold, 500.5, np.array(bounds, dtype=np.int64), counts.spans, vertex_first,
-                            triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES, kernels.TRIANGLE_COUNT,
-                            np.ones(3), np.zeros(3), points, np.empty((0, 3), np.float32), on_sample, triangles)
+        kernels.fill_layers(field, threshold, 500.5, np.array(bounds, dtype=np.int64), parts, counts.spans,
+                            vertex_first, triangle_first, kernels.PAIR_CASE, kernels.TRIANGLES,
+                            kernels.TRIANGLE_COUNT, np.ones(3), np.zeros(3), points, np.empty((0, 3), np.float32),
+                            on_sample, triangles)
         results.append((points, on_sample, triangles))
+    # The counting pass gives the same counts whatever the number of threads taking its layers.
+    for parts in (1, 3, 16):
+        spans = np.empty_like(counts.spans)
+        edges = np.zeros_like(counts.edges)
+        triangle_counts = np.empty_like(counts.triangles)
+        flags = np.zeros(field.shape[0] - 1, dtype=np.bool_)
+        kernels.count_layers(field, threshold, 0, field.shape[0] - 1, parts, kernels.PAIR_CASE,
+                             kernels.TRIANGLE_COUNT, spans, edges, triangle_counts, flags)
+        assert np.array_equal(spans, counts.spans) and np.array_equal(edges, counts.edges)
+        assert np.array_equal(triangle_counts, counts.triangles) and not flags.any()
     reference_points, reference_on_sample, reference_triangles = results[0]
     assert not np.isnan(reference_points).any() and reference_on_sample.min() == -1  # every vertex placed once
     assert reference_triangles.min() >= 0 and np.array_equal(np.unique(reference_triangles), np.arange(vertices))
