@@ -75,6 +75,10 @@ class ToolSet:
     which cut samples take the tool's normal, ``cut_normals`` False on the cheap path while a tool moves.
     ``grid_leaps`` (laid out as ``grid_values``) holds the grid tools' leap depth tables (:func:`grid_leap_depths`)
     made for ``leap_key = (evaluation, width)``; ``leap`` False turns the leap off (every sample is tested).
+    ``bounds`` False turns the per-ray bounds off (:func:`ray_interval`: every sample of a ray is tested).
+    ``grid_clears`` (laid out as ``grid_values``) holds the grid tools' clearance tables (:func:`grid_clear_depths`)
+    made for removal values of at least ``clear_margin``; they serve while every margin a renderer tests against is
+    no larger (:meth:`grid_clears_valid`).
     """
 
     kinds: np.ndarray
@@ -91,6 +95,9 @@ class ToolSet:
     grid_leaps: np.ndarray | None = None
     leap_key: tuple = ()
     leap: bool = True
+    bounds: bool = True
+    grid_clears: np.ndarray | None = None
+    clear_margin: float = 0.0
 
     def __post_init__(self) -> None:
         n = len(self.kinds)
@@ -105,6 +112,9 @@ class ToolSet:
             raise ValueError("tool matrices and parameters must be finite")
         if not (self.width > 0 and self.band >= 0):
             raise ValueError(f"tool width must be positive and band non-negative (mm), got {self.width}, {self.band}")
+        if self.grid_clears is not None and np.shape(self.grid_clears) != np.shape(self.grid_values):
+            raise ValueError(f"tool set: grid_clears must have the shape of grid_values {np.shape(self.grid_values)}, "
+                             f"got {np.shape(self.grid_clears)}")
         if self.grid_leaps is not None and np.shape(self.grid_leaps) != np.shape(self.grid_values):
             raise ValueError(f"tool set: grid_leaps must have the shape of grid_values {np.shape(self.grid_values)}, "
                              f"got {np.shape(self.grid_leaps)}")
@@ -132,7 +142,7 @@ class ToolSet:
         """A hashable summary (changes when any tool or setting changes; grid values by identity)."""
         return (self.kinds.tobytes(), self.modes.tobytes(), self.matrices.tobytes(), self.params.tobytes(),
                 id(self.grid_values), self.evaluation, self.width, self.band, self.cut_normals, id(self.grid_leaps),
-                self.leap_key, self.leap)
+                self.leap_key, self.leap, self.bounds, id(self.grid_clears), self.clear_margin)
 
     def grid_leaps_valid(self) -> bool:
         """True when the grid tools' leap depths were made for this evaluation: any depths serve ``binary`` (they
@@ -140,6 +150,14 @@ class ToolSet:
         if self.grid_leaps is None:
             return False
         return self.evaluation == "binary" or self.leap_key == (self.evaluation, self.width)
+
+    def largest_margin(self) -> float:
+        """The largest test margin a renderer can use with these settings (see :func:`bounds_margin`)."""
+        return max(0.0 if self.evaluation == "binary" else 0.5 * self.width, self.band if self.cut_normals else 0.0)
+
+    def grid_clears_valid(self) -> bool:
+        """True when the grid tools' clearance tables were made for a margin at least as large as any in use."""
+        return self.grid_clears is not None and self.largest_margin() <= self.clear_margin
 
     def leap_scales(self) -> np.ndarray:
         """Per tool, renderer mm per tool unit of distance (``1 / sigma_max`` of the matrix's linear part: a step
@@ -157,15 +175,20 @@ class ToolSet:
     def packed(self) -> tuple:
         """The tuple the kernels take: ``(kinds, modes, matrices, params, offsets, shapes, values, settings)`` with
         ``params[:, 3]`` the :meth:`leap_scales`, ``values`` the grid values followed by the grid tools' depth tables
-        (laid out alike, from ``settings[5]`` on) and ``settings = (evaluation code, width mm, band mm, cut normals
-        0/1, leap 0/1, where the depth tables start)`` float64."""
+        and their clearance tables (each laid out alike, from ``settings[5]`` and ``settings[7]`` on) and ``settings =
+        (evaluation code, width mm, band mm, cut normals 0/1, leap 0/1, where the depth tables start, bounds 0/1, where
+        the clearance tables start, clearance tables valid 0/1)`` float64."""
         leaps = self.grid_leaps if self.grid_leaps is not None else np.zeros_like(self.grid_values)
+        valid = self.grid_clears_valid()
+        clears = self.grid_clears if valid else np.zeros_like(self.grid_values)
+        size = float(np.size(self.grid_values))
         settings = np.array([EVALUATIONS.index(self.evaluation), self.width, self.band, float(self.cut_normals),
-                             float(self.leap), float(np.size(self.grid_values))])
+                             float(self.leap), size, float(self.bounds), 2.0 * size, float(valid)])
         params = np.array(self.params, dtype=np.float64)
         if len(params):
             params[:, 3] = self.leap_scales()
-        values = np.concatenate([np.ravel(self.grid_values), np.ravel(leaps)]).astype(np.float32, copy=False)
+        values = np.concatenate([np.ravel(self.grid_values), np.ravel(leaps), np.ravel(clears)]).astype(
+            np.float32, copy=False)
         return (np.ascontiguousarray(self.kinds, dtype=np.int64), np.ascontiguousarray(self.modes, dtype=np.int64),
                 np.ascontiguousarray(self.matrices, dtype=np.float64),
                 np.ascontiguousarray(params), np.ascontiguousarray(self.grid_offsets, dtype=np.int64),
@@ -273,6 +296,25 @@ def tool_count(tools):
     return tools[0].shape[0]
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _grid_table_entry(values, start, nx, ny, nz, x, y, z, use_table, reach_outside):
+    """A grid tool's per-cell table entry (flat table from ``start``) at continuous index ``(x, y, z)`` inside its
+    grid (0 unless ``use_table``); outside it, the distance to the grid's box when ``reach_outside``, else 0."""
+    if 0.0 <= x <= nx - 1 and 0.0 <= y <= ny - 1 and 0.0 <= z <= nz - 1:
+        if use_table and nx >= 2 and ny >= 2 and nz >= 2:
+            i0 = min(int(x), nx - 2)
+            j0 = min(int(y), ny - 2)
+            k0 = min(int(z), nz - 2)
+            return np.float64(values[start + (k0 * ny + j0) * nx + i0])
+        return 0.0
+    if not reach_outside:
+        return 0.0
+    qx = max(0.0 - x, 0.0, x - (nx - 1))
+    qy = max(0.0 - y, 0.0, y - (ny - 1))
+    qz = max(0.0 - z, 0.0, z - (nz - 1))
+    return math.sqrt(qx * qx + qy * qy + qz * qz)
+
+
 @njit(cache=True, nogil=True)
 def leap_at(tools, x, y, z):
     """How far (renderer mm) from ``(x, y, z)`` every point is still fully removed (0: no leap): the largest, over
@@ -297,19 +339,9 @@ def leap_at(tools, x, y, z):
         lz = m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3]
         depth = 0.0
         if kinds[t] == GRID:
-            nx, ny, nz = shapes[t, 0], shapes[t, 1], shapes[t, 2]
-            if 0.0 <= lx <= nx - 1 and 0.0 <= ly <= ny - 1 and 0.0 <= lz <= nz - 1:
-                if nx >= 2 and ny >= 2 and nz >= 2:
-                    i0 = min(int(lx), nx - 2)
-                    j0 = min(int(ly), ny - 2)
-                    k0 = min(int(lz), nz - 2)
-                    depth = values[base + offsets[t] + (k0 * ny + j0) * nx + i0]
-            elif modes[t] == KEEP:
-                # Outside a keep tool's grid everything is removed: as far as the grid's box.
-                qx = max(0.0 - lx, 0.0, lx - (nx - 1))
-                qy = max(0.0 - ly, 0.0, ly - (ny - 1))
-                qz = max(0.0 - lz, 0.0, lz - (nz - 1))
-                depth = math.sqrt(qx * qx + qy * qy + qz * qz)
+            # Outside a keep tool's grid everything is removed: as far as the grid's box.
+            depth = _grid_table_entry(values, base + offsets[t], shapes[t, 0], shapes[t, 1], shapes[t, 2], lx, ly, lz,
+                                      True, modes[t] == KEEP)
         else:
             f = _shape_distance(kinds[t], params[t], lx, ly, lz, values, offsets[t], shapes[t])
             r = f if modes[t] == REMOVE else -f
@@ -317,6 +349,217 @@ def leap_at(tools, x, y, z):
         if depth * s > best:
             best = depth * s
     return best
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _slab(o, d, low, high, t0, t1):
+    """The part ``[t0, t1]`` of the line ``o + t d`` (one coordinate) with ``low <= o + t d <= high``."""
+    if d == 0.0:
+        if o < low or o > high:
+            return 1.0, 0.0
+        return t0, t1
+    a = (low - o) / d
+    b = (high - o) / d
+    if a > b:
+        a, b = b, a
+    return max(t0, a), min(t1, b)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _disc(ax, ay, az, bx, by, bz, radius, t0, t1):
+    """The part ``[t0, t1]`` of the line ``a + t b`` with ``|a + t b| <= radius`` (``bz = az = 0``: a cylinder)."""
+    qa = bx * bx + by * by + bz * bz
+    qb = ax * bx + ay * by + az * bz
+    qc = ax * ax + ay * ay + az * az - radius * radius
+    if qa == 0.0:
+        return (t0, t1) if qc <= 0.0 else (1.0, 0.0)
+    discriminant = qb * qb - qa * qc
+    if discriminant < 0.0:
+        return 1.0, 0.0
+    root = math.sqrt(discriminant)
+    return max(t0, (-qb - root) / qa), min(t1, (-qb + root) / qa)
+
+
+#: Slack added to the bounds (tool units) against rounding: a point this close outside still counts as inside.
+_BOUNDS_SLACK = 1.0e-6
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _shape_span(kind, p0, p1, p2, n0, n1, n2, ax, ay, az, bx, by, bz, grow):
+    """The part of the line ``a + t b`` (tool frame) inside the tool's shape (parameters ``p0..p2``; grid size
+    ``n0..n2``) grown by ``grow`` (tool units; a negative ``grow`` shrinks it), a grid tool's grid box whatever
+    ``grow``; ``t0 > t1`` when it misses."""
+    t0, t1 = -np.inf, np.inf
+    if kind == SPHERE:
+        if p0 + grow <= 0.0:
+            return 1.0, 0.0
+        t0, t1 = _disc(ax, ay, az, bx, by, bz, p0 + grow, t0, t1)
+    elif kind == CYLINDER:
+        if p0 + grow <= 0.0:
+            return 1.0, 0.0
+        t0, t1 = _disc(ax, ay, 0.0, bx, by, 0.0, p0 + grow, t0, t1)
+        t0, t1 = _slab(az, bz, -p1 - grow, p1 + grow, t0, t1)
+    elif kind == BOX:
+        t0, t1 = _slab(ax, bx, -p0 - grow, p0 + grow, t0, t1)
+        t0, t1 = _slab(ay, by, -p1 - grow, p1 + grow, t0, t1)
+        t0, t1 = _slab(az, bz, -p2 - grow, p2 + grow, t0, t1)
+    elif kind == HALFSPACE:
+        t0, t1 = _slab(az, bz, -grow, np.inf, t0, t1)
+    else:  # a grid: FAR outside its voxel centres
+        t0, t1 = _slab(ax, bx, -_BOUNDS_SLACK, n0 - 1 + _BOUNDS_SLACK, t0, t1)
+        t0, t1 = _slab(ay, by, -_BOUNDS_SLACK, n1 - 1 + _BOUNDS_SLACK, t0, t1)
+        t0, t1 = _slab(az, bz, -_BOUNDS_SLACK, n2 - 1 + _BOUNDS_SLACK, t0, t1)
+    return t0, t1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def ray_interval(tools, ox, oy, oz, dx, dy, dz, margin):
+    """Where along the line ``o + t d`` (renderer frame, mm) the tools can matter: ``(low, high, keep_low,
+    keep_high, removed_low, removed_high)``.
+
+    - Outside ``[low, high]`` every tool's removal value is at least ``margin`` (tool units; give the largest ``g``
+      that changes a sample: 0 for the binary test, ``width/2`` for the distance ramp, the cut band where cut normals
+      are used), so a sample there is kept untouched without evaluating ``g``; ``low > high`` when the line misses
+      every tool.
+    - Outside ``[keep_low, keep_high]`` (the intersection over ``keep`` tools; the whole line when there is none)
+      every sample is fully removed.
+    - Inside ``[removed_low, removed_high]`` every sample is fully removed too: the longest chord of the line through
+      a ``remove`` shape shrunk by the distance ramp's half width (a shape is convex, so its chord is all inside;
+      ``removed_low > removed_high`` when there is none). Grid tools have no chord (their leap tables serve).
+
+    Found in each tool's own frame, where the line stays a line: the shape grown by the margin (a sphere and a
+    cylinder exactly, a box by its slabs, a half-space by its plane, a grid tool by its grid's box, outside which it
+    removes nothing or, in ``keep`` mode, everything). With ``bounds`` off in the settings: the whole line, no chord.
+    """
+    kinds, modes, matrices, params, shapes, settings = tools[0], tools[1], tools[2], tools[3], tools[5], tools[7]
+    low, high = np.inf, -np.inf
+    keep_low, keep_high = -np.inf, np.inf
+    removed_low, removed_high = 1.0, 0.0
+    if settings[6] <= 0.0:
+        return -np.inf, np.inf, keep_low, keep_high, removed_low, removed_high
+    ramp = 0.0 if settings[0] == BINARY else 0.5 * settings[1]
+    for t in range(kinds.shape[0]):
+        # (Indexed in place: a view of one matrix would be reference-counted, which costs more than the arithmetic.)
+        ax = matrices[t, 0, 0] * ox + matrices[t, 0, 1] * oy + matrices[t, 0, 2] * oz + matrices[t, 0, 3]
+        ay = matrices[t, 1, 0] * ox + matrices[t, 1, 1] * oy + matrices[t, 1, 2] * oz + matrices[t, 1, 3]
+        az = matrices[t, 2, 0] * ox + matrices[t, 2, 1] * oy + matrices[t, 2, 2] * oz + matrices[t, 2, 3]
+        bx = matrices[t, 0, 0] * dx + matrices[t, 0, 1] * dy + matrices[t, 0, 2] * dz
+        by = matrices[t, 1, 0] * dx + matrices[t, 1, 1] * dy + matrices[t, 1, 2] * dz
+        bz = matrices[t, 2, 0] * dx + matrices[t, 2, 1] * dy + matrices[t, 2, 2] * dz
+        remove = modes[t] == REMOVE
+        kind, p0, p1, p2 = kinds[t], params[t, 0], params[t, 1], params[t, 2]
+        n0, n1, n2 = shapes[t, 0], shapes[t, 1], shapes[t, 2]
+        t0, t1 = _shape_span(kind, p0, p1, p2, n0, n1, n2, ax, ay, az, bx, by, bz,
+                             (margin if remove else ramp) + _BOUNDS_SLACK)
+        if t0 <= t1:
+            low = min(low, t0)
+            high = max(high, t1)
+        if not remove:
+            keep_low = max(keep_low, t0)
+            keep_high = min(keep_high, t1)
+        elif kind != GRID:
+            c0, c1 = _shape_span(kind, p0, p1, p2, n0, n1, n2, ax, ay, az, bx, by, bz, -ramp - _BOUNDS_SLACK)
+            if c0 <= c1 and (removed_low > removed_high or c1 - c0 > removed_high - removed_low):
+                removed_low, removed_high = c0, c1
+    return low, high, keep_low, keep_high, removed_low, removed_high
+
+
+@njit(cache=True, nogil=True)
+def bounds_margin(tools, cut_normals):
+    """The ``margin`` of :func:`ray_interval` for a renderer: the largest removal value that changes a sample (the
+    distance ramp's half width, and the cut band when the renderer shades the cut with the tool's normal)."""
+    settings = tools[7]
+    margin = 0.0 if settings[0] == BINARY else 0.5 * settings[1]
+    if cut_normals:
+        margin = max(margin, settings[2])
+    return margin
+
+
+@njit(cache=True, nogil=True)
+def clear_at(tools, x, y, z, margin):
+    """How far (renderer mm) from ``(x, y, z)`` every tool's removal value stays at least ``margin`` (0: no such
+    promise): the smallest, over the tools, of the tool's clearance times its leap scale. A shape's clearance is
+    ``r - margin`` (a signed distance changes by at most the distance moved); a grid tool's is its clearance table
+    (:func:`grid_clear_depths`, made for a margin at least this large), or outside its grid the distance to the
+    grid's box for a ``remove`` tool (nothing there is removed) and 0 for a ``keep`` tool. A renderer that found a
+    sample clear (``g >= margin``) need not test the samples closer than this: they are kept unchanged."""
+    settings = tools[7]
+    if settings[4] <= 0.0:
+        return 0.0
+    kinds, modes, matrices, params, offsets, shapes, values = (tools[0], tools[1], tools[2], tools[3], tools[4],
+                                                               tools[5], tools[6])
+    base = int(settings[7])  # the clearance tables follow the depth tables
+    tables = settings[8] > 0.0
+    best = np.inf
+    for t in range(kinds.shape[0]):
+        s = params[t, 3]
+        if s <= 0.0:
+            return 0.0
+        lx = matrices[t, 0, 0] * x + matrices[t, 0, 1] * y + matrices[t, 0, 2] * z + matrices[t, 0, 3]
+        ly = matrices[t, 1, 0] * x + matrices[t, 1, 1] * y + matrices[t, 1, 2] * z + matrices[t, 1, 3]
+        lz = matrices[t, 2, 0] * x + matrices[t, 2, 1] * y + matrices[t, 2, 2] * z + matrices[t, 2, 3]
+        clearance = 0.0
+        if kinds[t] == GRID:
+            # Outside a remove tool's grid nothing is removed: clear as far as the grid's box.
+            clearance = _grid_table_entry(values, base + offsets[t], shapes[t, 0], shapes[t, 1], shapes[t, 2], lx, ly,
+                                          lz, tables, modes[t] == REMOVE)
+        else:
+            f = _shape_distance(kinds[t], params[t], lx, ly, lz, values, offsets[t], shapes[t])
+            clearance = (f if modes[t] == REMOVE else -f) - margin
+        best = min(best, clearance * s)
+        if best <= 0.0:
+            return 0.0
+    return best if best < np.inf else 0.0
+
+
+def _cell_depths(corner: np.ndarray, outside_in_set: bool) -> np.ndarray:
+    """Per trilinear cell (lower corner ``[k, j, i]``; the last layer of each axis 0), a radius (index units)
+    around any point of the cell inside which every point lies in cells whose eight corners are all in ``corner``
+    (or outside the grid, when ``outside_in_set``): the larger of the Euclidean distance transform between cell
+    centres less ``sqrt(3)`` and the chessboard distance less 1 (both conservative); 0 for other cells."""
+    from scipy import ndimage
+
+    out = np.zeros(corner.shape, dtype=np.float32)
+    if min(corner.shape) < 2:
+        return out
+    cells = corner[:-1, :-1, :-1].copy()
+    for dk in (0, 1):
+        for dj in (0, 1):
+            for di in (0, 1):
+                cells &= corner[dk:dk + cells.shape[0], dj:dj + cells.shape[1], di:di + cells.shape[2]]
+    if not cells.any():
+        return out
+    if outside_in_set:
+        padded, inner = cells, (slice(None),) * 3
+    else:
+        padded = np.pad(cells, 1, constant_values=False)
+        inner = (slice(1, -1),) * 3
+    if padded.all():  # every cell in the set and nothing outside limits it
+        depth = np.full(cells.shape, float(max(cells.shape)), dtype=np.float64)
+    else:
+        euclidean = ndimage.distance_transform_edt(padded)[inner] - math.sqrt(3.0)
+        chessboard = ndimage.distance_transform_cdt(padded, metric="chessboard")[inner] - 1.0
+        depth = np.maximum(np.maximum(euclidean, chessboard), 0.0)
+    out[:-1, :-1, :-1] = np.where(cells, depth, 0.0)
+    return out
+
+
+def grid_clear_depths(values, mode: str = "remove", margin: float = 0.0) -> np.ndarray:
+    """The clearance table of a grid tool (float32, the shape of ``values``; made once per tool and margin).
+
+    A cell is *clear* when all eight corners have a removal value ``r >= margin`` (``r = values`` for ``remove``,
+    ``-values`` for ``keep``): trilinear interpolation then stays at least ``margin`` everywhere in it, so its
+    samples are kept as they are. The entry is the radius (index units) within which every point lies in clear
+    cells (see :func:`grid_leap_depths` for the construction); outside the grid a ``remove`` tool removes nothing
+    (clear), a ``keep`` tool everything (not clear).
+    """
+    array = np.asarray(values, dtype=np.float32)
+    if array.ndim != 3:
+        raise ValueError(f"a grid tool's values must be a 3-D array (nz, ny, nx), got shape {array.shape}")
+    if mode not in MODES or not math.isfinite(margin):
+        raise ValueError(f"grid clearance: mode {mode!r} / margin {margin!r} not valid")
+    r = array if mode == "remove" else -array
+    return _cell_depths(r >= margin, outside_in_set=mode == "remove")
 
 
 def grid_leap_depths(values, mode: str = "remove", evaluation: str = "binary", width: float = 1.0) -> np.ndarray:
@@ -331,38 +574,14 @@ def grid_leap_depths(values, mode: str = "remove", evaluation: str = "binary", w
     are not fully removed. Outside the grid nothing is removed by a ``remove`` tool (so the grid is padded with
     cells that are not), everything by a ``keep`` tool.
     """
-    from scipy import ndimage
-
     array = np.asarray(values, dtype=np.float32)
     if array.ndim != 3:
         raise ValueError(f"a grid tool's values must be a 3-D array (nz, ny, nx), got shape {array.shape}")
     if mode not in MODES or evaluation not in EVALUATIONS:
         raise ValueError(f"grid leap depths: mode {mode!r} / evaluation {evaluation!r} unknown")
-    out = np.zeros(array.shape, dtype=np.float32)
-    if min(array.shape) < 2:
-        return out
     r = array if mode == "remove" else -array
     corner = r < 0 if evaluation == "binary" else r <= -0.5 * float(width)
-    cells = corner[:-1, :-1, :-1].copy()
-    for dk in (0, 1):
-        for dj in (0, 1):
-            for di in (0, 1):
-                cells &= corner[dk:dk + cells.shape[0], dj:dj + cells.shape[1], di:di + cells.shape[2]]
-    if not cells.any():
-        return out
-    if mode == "remove":
-        padded = np.pad(cells, 1, constant_values=False)
-        inner = (slice(1, -1),) * 3
-    else:
-        padded, inner = cells, (slice(None),) * 3
-    if padded.all():  # a keep tool whose every cell is removed: nothing inside limits the leap
-        depth = np.full(cells.shape, float(max(cells.shape)), dtype=np.float64)
-    else:
-        euclidean = ndimage.distance_transform_edt(padded)[inner] - math.sqrt(3.0)
-        chessboard = ndimage.distance_transform_cdt(padded, metric="chessboard")[inner] - 1.0
-        depth = np.maximum(np.maximum(euclidean, chessboard), 0.0)
-    out[:-1, :-1, :-1] = np.where(cells, depth, 0.0)
-    return out
+    return _cell_depths(corner, outside_in_set=mode == "keep")
 
 
 @njit(cache=True, nogil=True)

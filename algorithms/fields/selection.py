@@ -38,6 +38,7 @@ from ..common.selection import (
     REMOVE,
     SHAPES,
     ToolSet,
+    grid_clear_depths,
     grid_leap_depths,
     removal_field,
 )
@@ -153,6 +154,16 @@ class Tool:
         entry = self.leap_cache.get(key)
         if entry is None or entry[0] is not self.values:
             entry = (self.values, grid_leap_depths(self.values, self.mode, evaluation, width))
+            self.leap_cache[key] = entry
+        return entry[1]
+
+    def clear_depths(self, margin: float = 0.0) -> np.ndarray:
+        """The grid tool's clearance table (:func:`~algorithms.common.selection.grid_clear_depths`) for its mode and
+        this margin (mm of its field), made on first use and kept like :meth:`leap_depths`."""
+        key = (self.mode, "clear", float(margin))
+        entry = self.leap_cache.get(key)
+        if entry is None or entry[0] is not self.values:
+            entry = (self.values, grid_clear_depths(self.values, self.mode, float(margin)))
             self.leap_cache[key] = entry
         return entry[1]
 
@@ -285,7 +296,7 @@ def tool_set(tools, frame_to_world=None, *, evaluation: str = "binary", width: f
     params = np.zeros((n, 4))
     offsets = np.zeros(n, np.int64)
     shapes = np.zeros((n, 3), np.int64)
-    chunks, leaps, offset = [], [], 0
+    chunks, leaps, grids, offset = [], [], [], 0
     saturation = math.inf  # the smallest level of a binary-mask grid tool (mm, its field is +-level off the cut)
     for t, tool in enumerate(tools):
         kinds[t] = SHAPES[tool.shape]
@@ -297,6 +308,7 @@ def tool_set(tools, frame_to_world=None, *, evaluation: str = "binary", width: f
             shapes[t] = tool.grid.dimensions
             chunks.append(tool.values.ravel())
             leaps.append(tool.leap_depths(evaluation, width).ravel())
+            grids.append(tool)
             if tool.role == "mask":
                 saturation = min(saturation, 0.5 * float(np.mean(tool.grid.spacing)))
             offset += tool.values.size
@@ -311,8 +323,13 @@ def tool_set(tools, frame_to_world=None, *, evaluation: str = "binary", width: f
     values = np.concatenate(chunks).astype(np.float32, copy=False) if chunks else np.zeros(1, np.float32)
     grid_leaps = np.concatenate(leaps).astype(np.float32, copy=False) if leaps else None
     band = min(1.5 * width if band is None else band, 0.99 * saturation)
+    # The clearance tables serve every renderer of this set: made for the largest margin any of them tests against.
+    margin = max(0.0 if evaluation == "binary" else 0.5 * float(width), float(band))
+    grid_clears = (np.concatenate([tool.clear_depths(margin).ravel() for tool in grids]).astype(np.float32, copy=False)
+                   if grids else None)
     return ToolSet(kinds, modes, matrices, params, offsets, shapes, values, evaluation, float(width), float(band),
-                   bool(cut_normals), grid_leaps, (evaluation, float(width)))
+                   bool(cut_normals), grid_leaps, (evaluation, float(width)), grid_clears=grid_clears,
+                   clear_margin=margin)
 
 
 def removed_mask(tools: ToolSet, shape, spacing) -> np.ndarray:

@@ -3,7 +3,8 @@ thesis, TU Kaiserslautern, about 2009, sections 2.5 and 3.3.1) in every volume m
 
 - **Frame time with and without a tool**: the CT phantom (``sample``, 256 x 256 x 108) at 512 x 512 (``--quick``:
   256 x 256), ``ct-bone``, each volume mode (``raymarch``, ``slicing``, ``shear-warp`` when it honours tools,
-  ``vtk-gpu``, ``vtk-cpu``) over ``FRAMES`` frames of a turning camera (medians), without a tool and with a sphere,
+  ``vtk-gpu``, ``vtk-cpu``) in ``ROUNDS`` rounds of ``FRAMES`` frames of a turning camera (medians), the frames without
+  a tool, with it and on the pre-masked volume timed in turns so that outside load cannot favour one; with a sphere,
   a box rotated by 45 degrees and a mesh-shaped tool (the Stanford bunny, voxelised at 64 voxels, when
   ``../shared/data/meshes`` is present), unshaded and, for ``raymarch`` (source 002 measured with Blinn-Phong), shaded.
   The ratio with/without is set beside source 002's 3.7x (11 fps -> 3 fps on a 256^3 volume with local lighting).
@@ -35,8 +36,10 @@ from algorithms.common.progress import ProgressCallback, report
 
 from .common import machine_info, pyplot, save_figure, write_csv, write_json
 
-FRAMES = 12
+FRAMES = 4  # per round
+ROUNDS = 3
 QUICK_FRAMES = 3
+QUICK_ROUNDS = 1
 MOVES = 20
 SOURCE_SLOWDOWN = 11.0 / 3.0  # source 002, 2.5.2: 11 fps with Blinn-Phong, 3 fps with the selection volume
 VOLUME_MODES = ("raymarch", "slicing", "shear-warp", "vtk-gpu", "vtk-cpu")
@@ -80,42 +83,60 @@ def _accepting(name: str) -> bool:
     return get_mode(name).capabilities.accepts_selection
 
 
-def _frames(rows, item, modes, tools, size, frames, progress) -> dict:
+def _frame_seconds(item, mode, shading, size, frames, tool=None) -> float:
+    """Median frame time (s) of ``mode`` on ``item`` over ``frames`` frames of the turning camera."""
     from ..pipeline.headless import RenderSettings, render_item
+
+    settings = RenderSettings(mode=mode, size=size, shading=shading, frames=frames, parallel=mode == "shear-warp",
+                              tools=() if tool is None else (tool,))
+    return float(render_item(item, settings).info["frame_seconds"])
+
+
+def _frames(rows, item, modes, tools, size, frames, rounds, progress) -> None:
+    """Frame times with and without each tool, the three (uncut, cut, pre-masked) timed in turns ``rounds`` times
+    (each a run of ``frames`` frames of the same turning camera), so that load from outside the benchmark falls on
+    all of them alike; the ratios are medians over the rounds of each round's ratio."""
     from ..scene import VolumeItem
     from ..selection import masked_volume
 
-    base: dict[tuple[str, bool], float] = {}
-    steps = max(len(modes) * (len(tools) + 1) + 2 * (len(tools) + 1), 1)
-    done = 0
     variants = [(mode, False) for mode in modes] + [("raymarch", True)]
+    steps = max(len(variants) * len(tools), 1)
+    done = 0
     for mode, shading in variants:
-        for label, tool in [("none", None)] + list(tools.items()):
-            settings = RenderSettings(mode=mode, size=size, shading=shading, frames=frames,
-                                      parallel=mode == "shear-warp", tools=() if tool is None else (tool,))
-            info = render_item(item, settings).info
-            median = float(info["frame_seconds"])
-            if tool is None:
-                base[(mode, shading)] = median
-            ours = mode in ("raymarch", "slicing", "shear-warp")
-            premasked = None
-            if ours and tool is not None:
-                # The same mode on the volume pre-masked at the tool's place: the same samples survive the cut (rays
-                # reach further once the front is cut away), so this ratio is the cost of the per-sample test.
-                masked_item = VolumeItem("pre-masked", volume=masked_volume(item.volume, [tool]))
-                premasked = float(render_item(masked_item, RenderSettings(
-                    mode=mode, size=size, shading=shading, frames=frames,
-                    parallel=mode == "shear-warp")).info["frame_seconds"])
-            rows.append({"mode": mode, "shading": shading, "tool": label, "median_frame_s": median,
-                         "p95_frame_s": info["p95_frame_seconds"], "setup_s": info["setup_seconds"],
-                         "ratio_to_uncut": median / base[(mode, shading)],
-                         "premasked_frame_s": premasked,
-                         "ratio_to_premasked": None if premasked is None else median / premasked,
-                         "source_002_ratio": SOURCE_SLOWDOWN,
-                         "ours": ours, "frames": frames, "size": f"{size[0]}x{size[1]}"})
+        ours = mode in ("raymarch", "slicing", "shear-warp")
+        uncut_all: list[float] = []
+        tool_rows = []
+        for label, tool in tools.items():
+            # The same mode on the volume pre-masked at the tool's place: the same samples survive the cut (rays
+            # reach further once the front is cut away), so that ratio is the cost of the per-sample test alone.
+            masked_item = VolumeItem("pre-masked", volume=masked_volume(item.volume, [tool])) if ours else None
+            uncut, cut, premasked = [], [], []
+            for _ in range(rounds):
+                uncut.append(_frame_seconds(item, mode, shading, size, frames))
+                cut.append(_frame_seconds(item, mode, shading, size, frames, tool))
+                if masked_item is not None:
+                    premasked.append(_frame_seconds(masked_item, mode, shading, size, frames))
+            uncut_all += uncut
+            ratios = [c / u for c, u in zip(cut, uncut)]
+            to_premasked = [c / p for c, p in zip(cut, premasked)]
+            tool_rows.append({"mode": mode, "shading": shading, "tool": label, "median_frame_s": median(cut),
+                              "uncut_frame_s": median(uncut), "ratio_to_uncut": median(ratios),
+                              "ratio_to_uncut_range": f"{min(ratios):.3f}-{max(ratios):.3f}",
+                              "premasked_frame_s": median(premasked) if premasked else None,
+                              "ratio_to_premasked": median(to_premasked) if to_premasked else None,
+                              "source_002_ratio": SOURCE_SLOWDOWN, "ours": ours, "frames": frames,
+                              "rounds": rounds, "size": f"{size[0]}x{size[1]}"})
             done += 1
             report(progress, 0.6 * done / steps)
-    return base
+        rows.append({"mode": mode, "shading": shading, "tool": "none", "median_frame_s": median(uncut_all),
+                     "uncut_frame_s": median(uncut_all), "ratio_to_uncut": 1.0, "ratio_to_uncut_range": "",
+                     "premasked_frame_s": None, "ratio_to_premasked": None, "source_002_ratio": SOURCE_SLOWDOWN,
+                     "ours": ours, "frames": frames, "rounds": rounds * len(tools), "size": f"{size[0]}x{size[1]}"})
+        rows.extend(tool_rows)
+
+
+def median(values) -> float:
+    return float(np.median(values))
 
 
 def _agreement(item, volume, modes, sphere, size) -> list[dict[str, Any]]:
@@ -210,7 +231,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     if quick:
         tools = {k: v for k, v in tools.items() if k != "box 45 degrees"}
     frame_rows: list[dict[str, Any]] = []
-    _frames(frame_rows, item, modes, tools, size, frames, progress)
+    _frames(frame_rows, item, modes, tools, size, frames, QUICK_ROUNDS if quick else ROUNDS, progress)
     surface_modes = [m for m in SURFACE_MODES if _accepting(m)]
     agreement = _agreement(item, volume, modes + surface_modes, tools["sphere"], (256, 256) if quick else (512, 512))
     report(progress, 0.8)

@@ -487,3 +487,50 @@ def test_shear_warp_bench_ratios_match_times_and_ablations_turn_accelerations_of
                       ("speed_up_from_both", "shear-warp (no RLE + no early termination)")):
         assert summary[key] == pytest.approx(number(by_name[name], "slowdown_against_shear_warp"), rel=ROUNDING)
     assert np.isfinite([row["banding"] for row in data["banding"]]).all()
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Cut-aways
+# --------------------------------------------------------------------------------------------------------------
+def test_cutaway_bench_times_cut_uncut_and_premasked_frames_in_turns(tmp_path, monkeypatch):
+    from app.bench import cutaway
+
+    monkeypatch.setattr(cutaway, "VOLUME_MODES", ("raymarch", "shear-warp", "vtk-cpu"))
+    monkeypatch.setattr(cutaway, "SURFACE_MODES", ("marching-cubes",))
+    monkeypatch.setattr(cutaway, "QUICK_FRAMES", 1)
+    monkeypatch.setattr(cutaway, "QUICK_ROUNDS", 2)
+    monkeypatch.setattr(cutaway, "MOVES", 3)
+    calls = []
+    real = cutaway._frame_seconds
+
+    def recorded(item, mode, shading, size, frames, tool=None):
+        calls.append((mode, shading, item.name, tool is not None))
+        return real(item, mode, shading, size, frames, tool)
+
+    monkeypatch.setattr(cutaway, "_frame_seconds", recorded)
+    progress = Progress()
+    files = check_written(cutaway.run(tmp_path, quick=True, progress=progress), tmp_path,
+                          ["cutaway_frames.csv", "cutaway_agreement.csv", "cutaway_moves.csv", "cutaway_frames.png",
+                           "cutaway.json"])
+    progress.check()
+    data = check_run_json(files["cutaway.json"])
+    assert data["peak_rss_mib"] > 0
+    # Per mode and tool, two rounds of (uncut, cut, pre-masked for ours) in that order: timed in turns.
+    first = [call for call in calls if call[0] == "raymarch" and not call[1]]
+    assert [(name, cut) for _, _, name, cut in first[:6]] == [("sample", False), ("sample", True),
+                                                               ("pre-masked", False)] * 2
+    assert not any(name == "pre-masked" for mode, _, name, _ in calls if mode == "vtk-cpu")
+    _, frames = read_csv(files["cutaway_frames.csv"])
+    tools = [row for row in frames if row["tool"] != "none"]
+    assert {row["mode"] for row in frames} == {"raymarch", "shear-warp", "vtk-cpu"}
+    assert tools and all(row["rounds"] == "2" for row in tools)
+    for row in tools:
+        low, high = (float(v) for v in row["ratio_to_uncut_range"].split("-"))
+        assert low <= number(row, "ratio_to_uncut") <= high
+        assert (row["ratio_to_premasked"] != "") == (row["ours"] == "True")
+    _, agreement = read_csv(files["cutaway_agreement.csv"])
+    by_mode = {row["mode"]: row for row in agreement}
+    assert number(by_mode["raymarch"], "psnr_vs_premasked_db") >= 30.0
+    assert number(by_mode["raymarch"], "psnr_vs_uncut_db") < number(by_mode["raymarch"], "psnr_vs_premasked_db")
+    _, moves = read_csv(files["cutaway_moves.csv"])
+    assert [row["moves"] for row in moves] == ["3"] * 4

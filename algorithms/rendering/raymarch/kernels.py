@@ -21,7 +21,18 @@ from numba import njit, prange
 
 from ...common.pixel_rays import pixel_ray
 from ...common.sampling import cell_of, gradient, jitter_offset, sample_volume, second_jitter_offset, trilinear
-from ...common.selection import cut_band, cut_normals_on, leap_at, removal, removal_normal, tool_count, visibility
+from ...common.selection import (
+    bounds_margin,
+    clear_at,
+    cut_band,
+    cut_normals_on,
+    leap_at,
+    ray_interval,
+    removal,
+    removal_normal,
+    tool_count,
+    visibility,
+)
 
 #: Lighting model codes shared with :mod:`algorithms.rendering.raymarch.core`.
 EMISSION = 0
@@ -236,6 +247,7 @@ def _render_row(
     n_tools = tool_count(tools)
     tool_normals = n_tools > 0 and cut_normals_on(tools) and lighting == PHONG
     band = cut_band(tools) if n_tools > 0 else 0.0
+    margin = bounds_margin(tools, tool_normals) if n_tools > 0 else 0.0
     normal_step = 0.5 * min(sx, min(sy, sz))
     hits = evaluated_total = skipped_total = stopped = 0
     for col in range(width):
@@ -251,6 +263,19 @@ def _render_row(
         hit, t_in, first, last, n_samples = _sample_range(
             ox, oy, oz, ix, iy, iz, nx, ny, nz, sample_distance, skipping, any_visible, tight_low, tight_high, j - 1.0
         )
+        tool_low, tool_high = np.inf, -np.inf
+        removed_low, removed_high = 1.0, 0.0
+        untested_until = -np.inf  # samples before this (mm along the ray) are surely clear of every tool
+        if hit and n_tools > 0:
+            # Where along the ray the tools can matter (tested there only), the part that keep tools keep, and a
+            # chord through a remove tool where every sample is removed (jumped without a look-up).
+            tool_low, tool_high, keep_low, keep_high, removed_low, removed_high = ray_interval(
+                tools, ox * sx, oy * sy, oz * sz, dx, dy, dz, margin)
+            if keep_low > -np.inf:
+                first = max(first, int(math.ceil((keep_low - t_in) * inverse_distance - _SAMPLE_EPSILON)))
+            if keep_high < np.inf:
+                last = min(last, int(math.floor((keep_high - t_in) * inverse_distance + _SAMPLE_EPSILON)))
+            hit = first <= last
         if hit:
             # The box entry point in world mm (t_in + d is the first unjittered sample, t_in the entry).
             t_entry = t_in + (1.0 - j) * sample_distance
@@ -270,6 +295,13 @@ def _render_row(
             k = first
             while k <= last:
                 t = t_in + k * sample_distance
+                if removed_low <= t <= removed_high:
+                    # (Compared before the conversion: a half-space's chord never ends.)
+                    reach = (removed_high - t_in) * inverse_distance
+                    following = last + 1 if not reach < last else max(int(math.floor(reach)) + 1, k + 1)
+                    skipped += following - k
+                    k = following
+                    continue
                 x = ox + t * ix
                 y = oy + t * iy
                 z = oz + t * iz
@@ -304,7 +336,7 @@ def _render_row(
                 evaluated += 1
                 a, entry, fraction = _lookup_alpha(table, (value - table_min) * table_scale)
                 on_cut = False
-                if a > 0.0 and n_tools > 0:
+                if a > 0.0 and tool_low <= t <= tool_high and t >= untested_until:
                     # Source 002, 2.5: the selection test before the sample's colour (binary), or the smooth
                     # weight of the distance difference (3.3.1); the data volume is never changed.
                     g = removal(tools, x * sx, y * sy, z * sz)
@@ -314,12 +346,16 @@ def _render_row(
                         # Inside the removed region: leap over the samples that are surely removed too (the
                         # selection's own empty-space skipping: shapes' distances, grid tools' depth tables; strict,
                         # so none that could be kept is skipped).
-                        leap = min(int(math.ceil(leap_at(tools, x * sx, y * sy, z * sz) / sample_distance)) - 1,
-                                   last - k)
+                        reach = leap_at(tools, x * sx, y * sy, z * sz) * inverse_distance
+                        leap = int(math.ceil(reach)) - 1 if reach <= last - k else last - k
                         if leap > 0:
                             skipped += leap
                             k += leap + 1
                             continue
+                    elif g >= margin:
+                        # Clear of every tool (kept, not on the cut): so are the samples within the tools'
+                        # clearance, which need no test (shapes' distances, grid tools' clearance tables).
+                        untested_until = t + clear_at(tools, x * sx, y * sy, z * sz, margin)
                 if a > 0.0:
                     r = table[entry, 0] + fraction * (table[entry + 1, 0] - table[entry, 0])
                     g = table[entry, 1] + fraction * (table[entry + 1, 1] - table[entry, 1])

@@ -17,12 +17,37 @@ compositing); perspective and jittered frames refuse them with a ValueError.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, prange
 
-from ...common.selection import ToolSet, cut_band, cut_normals_on, removal, removal_normal, visibility
+from ...common.selection import (
+    FAR,
+    ToolSet,
+    bounds_margin,
+    clear_at,
+    cut_band,
+    cut_normals_on,
+    leap_at,
+    ray_interval,
+    removal,
+    removal_normal,
+    visibility,
+)
 from .factorisation import STANDARD_AXES
-from .kernels import _A_LEFT, _A_RIGHT, _B_LEFT, _B_RIGHT, _accumulate, _advance, _composite, _slice_setup, _start
+from .kernels import (
+    _A_LEFT,
+    _A_RIGHT,
+    _B_LEFT,
+    _B_RIGHT,
+    _accumulate,
+    _advance,
+    _composite,
+    _composite_stretch,
+    _slice_setup,
+    _start,
+)
 from .kernels import find_opaque_run_end
 
 
@@ -34,6 +59,24 @@ def tools_in_standard_frame(tools: ToolSet, principal_axis: int, spacing) -> Too
     for column, axis in enumerate(STANDARD_AXES[principal_axis]):
         frame[axis, column] = float(spacing[axis])
     return tools.in_frame(frame)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _samples_within(span, most):
+    """How many samples one unit apart, from the current one on, lie at most ``span`` ahead (``floor(span) + 1``),
+    at least 1 and at most ``most``; safe for an infinite ``span`` (a half-space's chord never ends)."""
+    if not span < most:
+        return most
+    return max(int(math.floor(span)) + 1, 1)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _samples_before(span, most):
+    """How many samples one unit apart, from the current one on, lie less than ``span`` ahead (``ceil(span)``), at
+    least 1 and at most ``most``; safe for a huge ``span``."""
+    if not span < most:
+        return most
+    return max(int(math.ceil(span)), 1)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -71,6 +114,7 @@ def composite_rle_cut(
     n_tasks = counts.shape[0]
     tool_shading = shading and cut_normals_on(tools)
     band = cut_band(tools)
+    margin = bounds_margin(tools, tool_shading)
     for task in prange(n_tasks):
         cursor = np.zeros((4, 4), dtype=np.int64)
         composited = 0
@@ -89,6 +133,11 @@ def composite_rle_cut(
                 line_a += k * nj
                 line_b = line_a + use_b
                 started = False
+                # Where along this line of samples (i = a + fraction_i[k]) the tools can matter, found when the line
+                # first has something to composite: tested there only; outside a keep tool everything is removed.
+                bounded = False
+                untested_until = -np.inf  # samples of the line before this are surely clear of every tool
+                tool_low = tool_high = keep_low = keep_high = removed_low = removed_high = 0.0
                 a = 0
                 while a < count:
                     u = u0 + a
@@ -120,15 +169,56 @@ def composite_rle_cut(
                     else:
                         e_al, e_ar = cursor[_A_LEFT, 2], cursor[_A_RIGHT, 2]
                         e_bl, e_br = cursor[_B_LEFT, 2], cursor[_B_RIGHT, 2]
+                        if not bounded:
+                            tool_low, tool_high, keep_low, keep_high, removed_low, removed_high = ray_interval(
+                                tools, 0.0, sample_j, sample_k, 1.0, 0.0, 0.0, margin)
+                            bounded = True
                         done = 0
+                        first_i = a + fraction_i[k]
+                        last_i = first_i + stretch - 1
+                        if last_i < tool_low or first_i > tool_high or last_i < untested_until:
+                            # The whole stretch is away from every tool, or within a clearance already found: all
+                            # kept as it is (the uncut kernel's loop, with no test), or, outside a keep tool, all
+                            # removed.
+                            if keep_low <= first_i and last_i <= keep_high:
+                                done = _composite_stretch(
+                                    image, offsets, row_offsets, v, u, 0, stretch, shown_al, shown_ar, shown_bl,
+                                    shown_br, w_al, w_ar, w_bl, w_br, e_al, e_ar, e_bl, e_br, voxel_classes,
+                                    voxel_normals, table, shade, shading, opacity_threshold, opaque_threshold)
+                            else:
+                                removed += stretch
+                                done = stretch
                         while done < stretch and row_offsets[u + done] == 0:
                             # Source 002, 2.5: the selection test at the sample's position in the slice.
                             sample_i = a + done + fraction_i[k]
-                            gval = removal(tools, sample_i, sample_j, sample_k)
-                            weight_cut = visibility(tools, gval)
+                            if removed_low <= sample_i <= removed_high:
+                                # On a chord through a remove shape: removed, like the rest of the chord.
+                                step = _samples_within(removed_high - sample_i, stretch - done)
+                                removed += step
+                                done += step
+                                continue
+                            tested = tool_low <= sample_i <= tool_high and sample_i >= untested_until
+                            if tested:
+                                gval = removal(tools, sample_i, sample_j, sample_k)
+                                weight_cut = visibility(tools, gval)
+                                if gval >= margin:
+                                    # Clear of every tool: so are the samples within the tools' clearance.
+                                    untested_until = sample_i + clear_at(tools, sample_i, sample_j, sample_k, margin)
+                            else:
+                                gval = FAR
+                                weight_cut = 1.0 if keep_low <= sample_i <= keep_high else 0.0
                             if weight_cut <= 0.0:
-                                removed += 1
-                                done += 1
+                                # Removed: so are the next samples of the line that lie within the tools' leap (the
+                                # selection's empty-space skipping, as in the ray marcher; samples are one index
+                                # unit apart along the line), or, outside a keep tool, up to where it begins.
+                                if tested:
+                                    step = _samples_before(leap_at(tools, sample_i, sample_j, sample_k), stretch - done)
+                                elif sample_i < keep_low:
+                                    step = _samples_before(keep_low - sample_i, stretch - done)
+                                else:
+                                    step = stretch - done
+                                removed += step
+                                done += step
                                 continue
                             cut_normal = np.int64(-1)
                             if tool_shading and gval < band:

@@ -310,6 +310,24 @@ def _slice_setup(v, k, nj, ni, pixel_i, pixel_j, fraction_i, fraction_j):
     return line_a, use_b, use_r, ni - use_r, pixel_i[k], w_al, w_ar, w_bl, w_br
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _composite_stretch(image, offsets, row_offsets, v, u, done, stretch, shown_al, shown_ar, shown_bl, shown_br,
+                       w_al, w_ar, w_bl, w_br, e_al, e_ar, e_bl, e_br, voxel_classes, voxel_normals, table, shade,
+                       shading, opacity_threshold, opaque_threshold):
+    """Resample, shade and composite samples ``done .. stretch - 1`` of a stretch whose four voxel cursors stay in
+    their runs (voxels ``e_* + done``), stopping at the first opaque pixel; returns how far it got."""
+    while done < stretch and row_offsets[u + done] == 0:
+        red = green = blue = alpha = np.float32(0.0)
+        for shown, weight, e in ((shown_al, w_al, e_al + done), (shown_ar, w_ar, e_ar + done),
+                                 (shown_bl, w_bl, e_bl + done), (shown_br, w_br, e_br + done)):
+            if shown:
+                red, green, blue, alpha = _accumulate(red, green, blue, alpha, weight, voxel_classes[e],
+                                                      voxel_normals[e] if shading else 0, table, shade, shading)
+        _composite(image, offsets, v, u + done, red, green, blue, alpha, opacity_threshold, opaque_threshold)
+        done += 1
+    return done
+
+
 @njit(cache=True, nogil=True, parallel=True)
 def composite_rle(
     run_lengths, voxel_classes, voxel_normals, line_runs, line_voxels, nj, ni,
@@ -380,18 +398,10 @@ def composite_rle(
                     else:
                         e_al, e_ar = cursor[_A_LEFT, 2], cursor[_A_RIGHT, 2]
                         e_bl, e_br = cursor[_B_LEFT, 2], cursor[_B_RIGHT, 2]
-                        done = 0
-                        while done < stretch and row_offsets[u + done] == 0:
-                            red = green = blue = alpha = np.float32(0.0)
-                            for shown, weight, e in ((shown_al, w_al, e_al + done), (shown_ar, w_ar, e_ar + done),
-                                                     (shown_bl, w_bl, e_bl + done), (shown_br, w_br, e_br + done)):
-                                if shown:
-                                    red, green, blue, alpha = _accumulate(
-                                        red, green, blue, alpha, weight, voxel_classes[e],
-                                        voxel_normals[e] if shading else 0, table, shade, shading)
-                            _composite(image, offsets, v, u + done, red, green, blue, alpha,
-                                       opacity_threshold, opaque_threshold)
-                            done += 1
+                        done = _composite_stretch(
+                            image, offsets, row_offsets, v, u, 0, stretch, shown_al, shown_ar, shown_bl, shown_br,
+                            w_al, w_ar, w_bl, w_br, e_al, e_ar, e_bl, e_br, voxel_classes, voxel_normals, table, shade,
+                            shading, opacity_threshold, opaque_threshold)
                         composited += done
                         stretch = done
                     if a + stretch >= count:

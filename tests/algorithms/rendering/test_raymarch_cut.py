@@ -109,3 +109,37 @@ def test_a_mask_tool_shades_its_grid_box_with_the_data_gradient_away_from_the_cu
     cut = renderer.render(camera, 96, 96, tools=tools)
     plain = renderer.render(camera, 96, 96)
     assert np.abs(cut.rgba - plain.rgba).max() < 1e-4
+
+
+def _every_kind_of_tool(mode):
+    from algorithms.fields.selection import cylinder_tool, plane_tool
+
+    return [sphere_tool((20.0, -60.0, 20.0), 45.0, mode=mode),
+            box_tool((-40.0, -40.0, 40.0), (60, 50, 70), (0, 20, 45), mode=mode),
+            cylinder_tool((10.0, -70.0, 10.0), 35.0, 100.0, (30, 0, 60), mode=mode),
+            plane_tool((0.0, 0.0, 60.0), (0.2, 0.3, 1.0), mode=mode),
+            _ball_mask_tool(mode)]
+
+
+@pytest.mark.parametrize("mode", ["remove", "keep"])
+@pytest.mark.parametrize("evaluation", ["binary", "distance"])
+@pytest.mark.parametrize("lighting", ["emission", "phong"])
+def test_testing_only_where_a_ray_meets_the_tools_leaves_the_image_unchanged(scene, mode, evaluation, lighting):
+    # Per ray, the tools are evaluated only where the ray passes within the test margin of a tool, keep tools clip
+    # the ray to their bounds, and a chord through a remove shape is jumped; every sample is kept or removed exactly
+    # as the plain per-sample test (no bounds, no leap) decides.
+    volume, camera, table = scene
+    renderer = _renderer(volume, table, lighting)
+    plain = renderer.render(camera, 96, 96)
+    for tool in _every_kind_of_tool(mode):
+        placed = tool_set([tool], volume.local_to_world, evaluation=evaluation, width=min(volume.spacing))
+        stretched = placed.with_settings(matrices=placed.matrices @ np.diag([1.3, 0.8, 1.0, 1.0]))
+        for tools in (placed, stretched):
+            bounded = renderer.render(camera, 96, 96, tools=tools)
+            everywhere = renderer.render(camera, 96, 96, tools=tools.with_settings(bounds=False, leap=False))
+            assert np.abs(bounded.rgba - everywhere.rgba).max() < 1e-4, tool.shape
+            assert np.abs(bounded.rgba - plain.rgba).max() > 0.05, tool.shape  # the tool does cut
+    both = tool_set(_every_kind_of_tool(mode)[:2], volume.local_to_world, evaluation=evaluation,
+                    width=min(volume.spacing))
+    assert np.abs(renderer.render(camera, 96, 96, tools=both).rgba
+                  - renderer.render(camera, 96, 96, tools=both.with_settings(bounds=False, leap=False)).rgba).max() < 1e-4

@@ -538,3 +538,41 @@ def test_render_and_helper_value_errors():
         ShearWarpFilter().SetTransferTable(None)
     with pytest.raises(ValueError, match="early_termination"):
         ShearWarpFilter().SetEarlyTermination(0.0)
+
+
+@pytest.mark.parametrize("mode", ["remove", "keep"])
+@pytest.mark.parametrize("evaluation", ["binary", "distance"])
+@pytest.mark.parametrize("shading", [False, True])
+def test_testing_tools_only_where_a_line_of_samples_meets_them_leaves_the_image_unchanged(mode, evaluation, shading):
+    # Cut-aways (issue 15): each line of samples of a slice tests the tools only where it passes within the test
+    # margin of one (ray_interval), outside a keep tool it removes without testing, and it leaps over samples the
+    # tools surely remove. The same image as testing every sample.
+    from algorithms.common.grid import Grid
+    from algorithms.fields.selection import (box_tool, cylinder_tool, grid_tool, plane_tool, rotation_matrix,
+                                             sphere_tool, tool_set)
+
+    volume = ct_head_phantom(shape=(54, 128, 128), spacing=(1.875, 1.875, 4.0))
+    table = transfer_function_for(volume, "ct-bone").to_table(volume.value_range)
+    camera = default_camera(volume, azimuth=30, elevation=15, parallel=True).transformed(
+        np.linalg.inv(volume.local_to_world))
+    renderer = ShearWarpRenderer(volume.array, volume.spacing, table, shading=shading)
+    plain = renderer.render(camera, 96, 96)
+    tools = [sphere_tool((20.0, -60.0, 20.0), 45.0, mode=mode),
+             box_tool((-40.0, -40.0, 40.0), (60, 50, 70), (0, 20, 45), mode=mode),
+             cylinder_tool((10.0, -70.0, 10.0), 35.0, 100.0, (30, 0, 60), mode=mode),
+             plane_tool((0.0, 0.0, 60.0), (0.2, 0.3, 1.0), mode=mode)]
+    grid = Grid.around([-40, 40, -40, 40, -40, 40], voxels=40, padding=2)
+    k, j, i = np.indices(grid.shape)
+    world = grid.index_to_world(np.stack([i.ravel(), j.ravel(), k.ravel()], axis=1)).reshape(grid.shape + (3,))
+    transform = np.eye(4)
+    transform[:3, :3] = rotation_matrix((10, 20, 30)) @ np.diag([1.3, 1.0, 0.8])
+    transform[:3, 3] = (20.0, -60.0, 20.0)
+    tools.append(grid_tool(np.linalg.norm(world, axis=-1) < 35.0, grid, transform=transform, mode=mode))
+    for tool in tools:
+        placed = tool_set([tool], volume.local_to_world, evaluation=evaluation, width=min(volume.spacing))
+        bounded = renderer.render(camera, 96, 96, tools=placed)
+        # Every sample tested, no leap through removed samples: the plain per-sample test of source 002.
+        everywhere = renderer.render(camera, 96, 96, tools=placed.with_settings(bounds=False, leap=False))
+        assert np.abs(bounded.rgba - everywhere.rgba).max() < 1e-4, tool.shape
+        assert np.abs(bounded.rgba - plain.rgba).max() > 0.05, tool.shape
+        assert bounded.stats["samples_removed_by_tools"] > 0
