@@ -22,17 +22,16 @@ from numba import njit, prange
 from ...common.pixel_rays import pixel_ray
 from ...common.sampling import cell_of, gradient, jitter_offset, sample_volume, second_jitter_offset, trilinear
 from ...common.selection import (
-    bounds_margin,
     clear_at,
     cut_band,
     cut_normals_on,
     leap_at,
-    ray_interval,
     removal,
     removal_normal,
     tool_count,
     visibility,
 )
+from ...common.selection_bounds import bounds_margin, ray_interval
 
 #: Lighting model codes shared with :mod:`algorithms.rendering.raymarch.core`.
 EMISSION = 0

@@ -25,16 +25,15 @@ from numba import njit, prange
 from ...common.selection import (
     FAR,
     ToolSet,
-    bounds_margin,
     clear_at,
     cut_band,
     cut_normals_on,
     leap_at,
-    ray_interval,
     removal,
     removal_normal,
     visibility,
 )
+from ...common.selection_bounds import bounds_margin, ray_interval
 from .factorisation import STANDARD_AXES
 from .kernels import (
     _A_LEFT,
