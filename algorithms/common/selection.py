@@ -201,7 +201,7 @@ def packed_tools(tools: "ToolSet | None") -> tuple:
 
 
 # -- kernels ----------------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _grid_value(values, offset, nx, ny, nz, x, y, z):
     """Trilinear value of a grid tool at continuous index ``(x, y, z)``; :data:`FAR` outside its voxel centres."""
     if not (0.0 <= x <= nx - 1 and 0.0 <= y <= ny - 1 and 0.0 <= z <= nz - 1):
@@ -230,44 +230,52 @@ def _grid_value(values, offset, nx, ny, nz, x, y, z):
     return c0 + fz * (c1 - c0)
 
 
-@njit(cache=True, nogil=True)
-def _shape_distance(kind, params, x, y, z, values, offset, shape):
-    """Signed distance (mm, negative inside) of one tool's shape at ``(x, y, z)`` in the tool's own frame."""
+@njit(cache=True, nogil=True, inline="always")
+def _shape_distance(kind, p0, p1, p2, x, y, z, values, offset, nx, ny, nz):
+    """Signed distance (mm, negative inside) of one tool's shape (parameters ``p0..p2``; a grid tool's values from
+    ``offset``, size ``nx, ny, nz``) at ``(x, y, z)`` in the tool's own frame. Takes scalars, not rows of the packed
+    arrays: a row would be a reference-counted view, which costs more than the arithmetic."""
     if kind == SPHERE:
-        return math.sqrt(x * x + y * y + z * z) - params[0]
+        return math.sqrt(x * x + y * y + z * z) - p0
     if kind == BOX:
-        qx, qy, qz = abs(x) - params[0], abs(y) - params[1], abs(z) - params[2]
+        qx, qy, qz = abs(x) - p0, abs(y) - p1, abs(z) - p2
         outside = math.sqrt(max(qx, 0.0) ** 2 + max(qy, 0.0) ** 2 + max(qz, 0.0) ** 2)
         return outside + min(max(qx, max(qy, qz)), 0.0)
     if kind == CYLINDER:
-        qr = math.sqrt(x * x + y * y) - params[0]
-        qh = abs(z) - params[1]
+        qr = math.sqrt(x * x + y * y) - p0
+        qh = abs(z) - p1
         outside = math.sqrt(max(qr, 0.0) ** 2 + max(qh, 0.0) ** 2)
         return outside + min(max(qr, qh), 0.0)
     if kind == HALFSPACE:
         return -z
-    return _grid_value(values, offset, shape[0], shape[1], shape[2], x, y, z)
+    return _grid_value(values, offset, nx, ny, nz, x, y, z)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
+def _tool_distance(kinds, matrices, params, offsets, shapes, values, t, x, y, z):
+    """:func:`_shape_distance` of tool ``t`` at ``(x, y, z)`` given in the renderer's frame."""
+    lx = matrices[t, 0, 0] * x + matrices[t, 0, 1] * y + matrices[t, 0, 2] * z + matrices[t, 0, 3]
+    ly = matrices[t, 1, 0] * x + matrices[t, 1, 1] * y + matrices[t, 1, 2] * z + matrices[t, 1, 3]
+    lz = matrices[t, 2, 0] * x + matrices[t, 2, 1] * y + matrices[t, 2, 2] * z + matrices[t, 2, 3]
+    return _shape_distance(kinds[t], params[t, 0], params[t, 1], params[t, 2], lx, ly, lz, values, offsets[t],
+                           shapes[t, 0], shapes[t, 1], shapes[t, 2])
+
+
+@njit(cache=True, nogil=True, inline="always")
 def removal(tools, x, y, z):
     """The removal field ``g`` (mm) at ``(x, y, z)`` (renderer frame, mm): negative where a sample is removed."""
     kinds, modes, matrices, params, offsets, shapes, values = (tools[0], tools[1], tools[2], tools[3], tools[4],
                                                                tools[5], tools[6])
     g = FAR
     for t in range(kinds.shape[0]):
-        m = matrices[t]
-        lx = m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]
-        ly = m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]
-        lz = m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3]
-        f = _shape_distance(kinds[t], params[t], lx, ly, lz, values, offsets[t], shapes[t])
+        f = _tool_distance(kinds, matrices, params, offsets, shapes, values, t, x, y, z)
         r = f if modes[t] == REMOVE else -f
         if r < g:
             g = r
     return g
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def visibility(tools, g):
     """The weight (0 .. 1) of a sample whose removal value is ``g``: binary ``g >= 0``, or the smooth ramp
     ``clamp(1/2 + g / width, 0, 1)`` of the distance evaluation."""
@@ -315,7 +323,7 @@ def _grid_table_entry(values, start, nx, ny, nz, x, y, z, use_table, reach_outsi
     return math.sqrt(qx * qx + qy * qy + qz * qz)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def leap_at(tools, x, y, z):
     """How far (renderer mm) from ``(x, y, z)`` every point is still fully removed (0: no leap): the largest, over
     the tools that remove the point, of the tool's conservative depth (shapes: ``-r``, less ``width/2`` for the
@@ -333,17 +341,16 @@ def leap_at(tools, x, y, z):
         s = params[t, 3]
         if s <= 0.0:
             continue
-        m = matrices[t]
-        lx = m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]
-        ly = m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]
-        lz = m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3]
         depth = 0.0
         if kinds[t] == GRID:
             # Outside a keep tool's grid everything is removed: as far as the grid's box.
+            lx = matrices[t, 0, 0] * x + matrices[t, 0, 1] * y + matrices[t, 0, 2] * z + matrices[t, 0, 3]
+            ly = matrices[t, 1, 0] * x + matrices[t, 1, 1] * y + matrices[t, 1, 2] * z + matrices[t, 1, 3]
+            lz = matrices[t, 2, 0] * x + matrices[t, 2, 1] * y + matrices[t, 2, 2] * z + matrices[t, 2, 3]
             depth = _grid_table_entry(values, base + offsets[t], shapes[t, 0], shapes[t, 1], shapes[t, 2], lx, ly, lz,
                                       True, modes[t] == KEEP)
         else:
-            f = _shape_distance(kinds[t], params[t], lx, ly, lz, values, offsets[t], shapes[t])
+            f = _tool_distance(kinds, matrices, params, offsets, shapes, values, t, x, y, z)
             r = f if modes[t] == REMOVE else -f
             depth = -r - margin
         if depth * s > best:
@@ -351,7 +358,7 @@ def leap_at(tools, x, y, z):
     return best
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def clear_at(tools, x, y, z, margin):
     """How far (renderer mm) from ``(x, y, z)`` every tool's removal value stays at least ``margin`` (0: no such
     promise): the smallest, over the tools, of the tool's clearance times its leap scale. A shape's clearance is
@@ -371,16 +378,16 @@ def clear_at(tools, x, y, z, margin):
         s = params[t, 3]
         if s <= 0.0:
             return 0.0
-        lx = matrices[t, 0, 0] * x + matrices[t, 0, 1] * y + matrices[t, 0, 2] * z + matrices[t, 0, 3]
-        ly = matrices[t, 1, 0] * x + matrices[t, 1, 1] * y + matrices[t, 1, 2] * z + matrices[t, 1, 3]
-        lz = matrices[t, 2, 0] * x + matrices[t, 2, 1] * y + matrices[t, 2, 2] * z + matrices[t, 2, 3]
         clearance = 0.0
         if kinds[t] == GRID:
             # Outside a remove tool's grid nothing is removed: clear as far as the grid's box.
+            lx = matrices[t, 0, 0] * x + matrices[t, 0, 1] * y + matrices[t, 0, 2] * z + matrices[t, 0, 3]
+            ly = matrices[t, 1, 0] * x + matrices[t, 1, 1] * y + matrices[t, 1, 2] * z + matrices[t, 1, 3]
+            lz = matrices[t, 2, 0] * x + matrices[t, 2, 1] * y + matrices[t, 2, 2] * z + matrices[t, 2, 3]
             clearance = _grid_table_entry(values, base + offsets[t], shapes[t, 0], shapes[t, 1], shapes[t, 2], lx, ly,
                                           lz, tables, modes[t] == REMOVE)
         else:
-            f = _shape_distance(kinds[t], params[t], lx, ly, lz, values, offsets[t], shapes[t])
+            f = _tool_distance(kinds, matrices, params, offsets, shapes, values, t, x, y, z)
             clearance = (f if modes[t] == REMOVE else -f) - margin
         best = min(best, clearance * s)
         if best <= 0.0:

@@ -26,6 +26,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ...common.atomics import take
+
 #: Length of the sentinel run that ends every ``run_lengths`` array.
 SENTINEL_RUN = 65535
 
@@ -346,69 +348,75 @@ def composite_rle(
     Within a row, runs of opaque pixels are jumped with :func:`find_opaque_run_end` and stretches where all four
     voxel cursors are in transparent runs are skipped without touching a voxel; everything else is resampled,
     shaded through the per-view tables and composited. Rows are independent (a row of the intermediate image only
-    reads voxel scanlines and writes itself), so blocks of ``block`` rows are shared among the threads, each thread
+    reads voxel scanlines and writes itself), so the threads take blocks of ``block`` rows one at a time from a
+    shared counter (:func:`algorithms.common.atomics.take`: a thread whose rows are busy takes fewer), each thread
     compositing every slice of its rows in front-to-back order. ``counts[task]`` receives (samples composited,
     samples skipped as transparent, samples skipped behind opaque pixels).
     """
     n_tasks = counts.shape[0]
+    queue = np.zeros(1, dtype=np.int64)
     for task in prange(n_tasks):
         cursor = np.zeros((4, 4), dtype=np.int64)
         composited = 0
         transparent = 0
         hidden = 0
-        for v in _task_rows(task, n_tasks, block, row_start, row_stop):
-            row_offsets = offsets[v]
-            for k in slice_order:
-                line_a, use_b, use_r, count, u0, w_al, w_ar, w_bl, w_br = _slice_setup(
-                    v, k, nj, ni, pixel_i, pixel_j, fraction_i, fraction_j)
-                if line_a < 0:
-                    continue
-                line_a += k * nj
-                line_b = line_a + use_b
-                started = False
-                a = 0
-                while a < count:
-                    u = u0 + a
-                    if row_offsets[u] > 0:
-                        run = find_opaque_run_end(row_offsets, u) - u
-                        if a + run >= count:
-                            hidden += count - a
-                            break
-                        hidden += run
-                        a += run
-                        if started:
-                            for slot in range(4):
-                                _advance(cursor, slot, run, run_lengths)
+        while True:
+            first = row_start + take(queue, 1) * block  # the next block of rows (module notes)
+            if first >= row_stop:
+                break
+            for v in range(first, min(first + block, row_stop)):
+                row_offsets = offsets[v]
+                for k in slice_order:
+                    line_a, use_b, use_r, count, u0, w_al, w_ar, w_bl, w_br = _slice_setup(
+                        v, k, nj, ni, pixel_i, pixel_j, fraction_i, fraction_j)
+                    if line_a < 0:
                         continue
-                    if not started:
-                        _start(cursor, _A_LEFT, line_a, a, line_runs, line_voxels, run_lengths)
-                        _start(cursor, _A_RIGHT, line_a, a + use_r, line_runs, line_voxels, run_lengths)
-                        _start(cursor, _B_LEFT, line_b, a, line_runs, line_voxels, run_lengths)
-                        _start(cursor, _B_RIGHT, line_b, a + use_r, line_runs, line_voxels, run_lengths)
-                        started = True
-                    # The stretch over which every cursor stays in its current run.
-                    stretch = min(count - a, cursor[_A_LEFT, 1], cursor[_A_RIGHT, 1])
-                    stretch = min(stretch, cursor[_B_LEFT, 1], cursor[_B_RIGHT, 1])
-                    shown_al = cursor[_A_LEFT, 3] == 1
-                    shown_ar = use_r == 1 and cursor[_A_RIGHT, 3] == 1
-                    shown_bl = use_b == 1 and cursor[_B_LEFT, 3] == 1
-                    shown_br = use_b == 1 and use_r == 1 and cursor[_B_RIGHT, 3] == 1
-                    if not (shown_al or shown_ar or shown_bl or shown_br):
-                        transparent += stretch
-                    else:
-                        e_al, e_ar = cursor[_A_LEFT, 2], cursor[_A_RIGHT, 2]
-                        e_bl, e_br = cursor[_B_LEFT, 2], cursor[_B_RIGHT, 2]
-                        done = _composite_stretch(
-                            image, offsets, row_offsets, v, u, 0, stretch, shown_al, shown_ar, shown_bl, shown_br,
-                            w_al, w_ar, w_bl, w_br, e_al, e_ar, e_bl, e_br, voxel_classes, voxel_normals, table, shade,
-                            shading, opacity_threshold, opaque_threshold)
-                        composited += done
-                        stretch = done
-                    if a + stretch >= count:
-                        break
-                    for slot in range(4):
-                        _advance(cursor, slot, stretch, run_lengths)
-                    a += stretch
+                    line_a += k * nj
+                    line_b = line_a + use_b
+                    started = False
+                    a = 0
+                    while a < count:
+                        u = u0 + a
+                        if row_offsets[u] > 0:
+                            run = find_opaque_run_end(row_offsets, u) - u
+                            if a + run >= count:
+                                hidden += count - a
+                                break
+                            hidden += run
+                            a += run
+                            if started:
+                                for slot in range(4):
+                                    _advance(cursor, slot, run, run_lengths)
+                            continue
+                        if not started:
+                            _start(cursor, _A_LEFT, line_a, a, line_runs, line_voxels, run_lengths)
+                            _start(cursor, _A_RIGHT, line_a, a + use_r, line_runs, line_voxels, run_lengths)
+                            _start(cursor, _B_LEFT, line_b, a, line_runs, line_voxels, run_lengths)
+                            _start(cursor, _B_RIGHT, line_b, a + use_r, line_runs, line_voxels, run_lengths)
+                            started = True
+                        # The stretch over which every cursor stays in its current run.
+                        stretch = min(count - a, cursor[_A_LEFT, 1], cursor[_A_RIGHT, 1])
+                        stretch = min(stretch, cursor[_B_LEFT, 1], cursor[_B_RIGHT, 1])
+                        shown_al = cursor[_A_LEFT, 3] == 1
+                        shown_ar = use_r == 1 and cursor[_A_RIGHT, 3] == 1
+                        shown_bl = use_b == 1 and cursor[_B_LEFT, 3] == 1
+                        shown_br = use_b == 1 and use_r == 1 and cursor[_B_RIGHT, 3] == 1
+                        if not (shown_al or shown_ar or shown_bl or shown_br):
+                            transparent += stretch
+                        else:
+                            e_al, e_ar = cursor[_A_LEFT, 2], cursor[_A_RIGHT, 2]
+                            e_bl, e_br = cursor[_B_LEFT, 2], cursor[_B_RIGHT, 2]
+                            done = _composite_stretch(
+                                image, offsets, row_offsets, v, u, 0, stretch, shown_al, shown_ar, shown_bl,
+                                shown_br, w_al, w_ar, w_bl, w_br, e_al, e_ar, e_bl, e_br, voxel_classes, voxel_normals,
+                                table, shade, shading, opacity_threshold, opaque_threshold)
+                            composited += done
+                            stretch = done
+                        if a + stretch >= count:
+                            break
+                        for slot in range(4):
+                            _advance(cursor, slot, stretch, run_lengths)
+                        a += stretch
         counts[task, 0] = composited
         counts[task, 1] = transparent
         counts[task, 2] = hidden

@@ -17,7 +17,7 @@ Implementation: two passes over the rows of cells, both parallel over layers of 
    cache. A vertex that falls exactly on a sample is flagged for :func:`merge_on_samples`.
 
 Threads: each pass is one numba parallel region of one iteration per thread, and the threads take work items
-(layers, or slabs of layers) from a shared counter, one at a time (:func:`_take`, an atomic fetch-and-add) until
+(layers, or slabs of layers) from a shared counter, one at a time (:func:`algorithms.common.atomics.take`, an atomic fetch-and-add) until
 none is left. A thread that the operating system slows down, or whose layers happen to be busy ones, simply takes
 fewer items: the split adapts while the pass runs, which a split fixed in advance (numba's ``prange``
 chunks are dealt out statically) cannot do. Any split gives the same output, since every row of cells knows where
@@ -31,9 +31,9 @@ block of a larger volume can be meshed on its own.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange, types
-from numba.extending import intrinsic
+from numba import njit, prange
 
+from ...common.atomics import take as _take
 from . import tables
 
 
@@ -105,21 +105,6 @@ def _owned(j, k, ny, nz):
     """Which edge rows the row of cells ``(j, k)`` owns besides its own x, y and z rows at ``(j, k)``:
     the sample row ``j + 1`` (last row of cells), the slice ``k + 1`` (last layer), or both."""
     return j == ny - 2, k == nz - 2
-
-
-@intrinsic
-def _take(typingctx, counter, amount):
-    """Atomically add ``amount`` to ``counter[0]`` (a contiguous int64 array) and return its previous value: the
-    next work item for the calling thread. Sequentially consistent, so no two threads get the same item."""
-    if not (isinstance(counter, types.Array) and counter.dtype == types.int64 and isinstance(amount, types.Integer)):
-        return None
-
-    def codegen(context, builder, signature, args):
-        array = context.make_array(signature.args[0])(context, builder, args[0])
-        value = context.cast(builder, args[1], signature.args[1], types.int64)
-        return builder.atomic_rmw("add", array.data, value, "seq_cst")
-
-    return types.int64(counter, amount), codegen
 
 
 @njit(cache=True, nogil=True, inline="always")
