@@ -140,3 +140,39 @@ def bounds_margin(tools, cut_normals):
     if cut_normals:
         margin = max(margin, settings[2])
     return margin
+
+
+def reach_box(tools: tuple, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """The box (renderer frame, ``low``, ``high``; 3 each) outside which every tool of ``tools`` (packed, see
+    :meth:`~algorithms.common.selection.ToolSet.packed`) has a removal value of at least ``margin``: a ray that
+    stays outside it needs no :func:`ray_interval`. Unbounded (``-inf``, ``inf``) when some tool is a ``keep`` tool
+    (outside it everything is removed), a half-space, or when bounds are off."""
+    kinds, modes, matrices, params, shapes, settings = tools[0], tools[1], tools[2], tools[3], tools[5], tools[7]
+    low, high = np.full(3, np.inf), np.full(3, -np.inf)
+    unbounded = np.full(3, -np.inf), np.full(3, np.inf)
+    if settings[6] <= 0.0:
+        return unbounded
+    for t in range(len(kinds)):
+        if modes[t] != REMOVE or kinds[t] == HALFSPACE:
+            return unbounded
+        grow = margin + _BOUNDS_SLACK
+        if kinds[t] == GRID:
+            lo, hi = np.full(3, -_BOUNDS_SLACK), shapes[t].astype(np.float64) - 1.0 + _BOUNDS_SLACK
+        elif kinds[t] == SPHERE:
+            hi = np.full(3, params[t, 0] + grow)
+            lo = -hi
+        elif kinds[t] == CYLINDER:
+            hi = np.array([params[t, 0], params[t, 0], params[t, 1]]) + grow
+            lo = -hi
+        else:  # BOX
+            hi = np.asarray(params[t, :3], dtype=np.float64) + grow
+            lo = -hi
+        corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        try:
+            inverse = np.linalg.inv(matrices[t])
+        except np.linalg.LinAlgError:
+            return unbounded
+        points = corners @ inverse.T
+        low = np.minimum(low, points[:, :3].min(axis=0))
+        high = np.maximum(high, points[:, :3].max(axis=0))
+    return low, high

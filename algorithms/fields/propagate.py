@@ -23,11 +23,16 @@ distance to each candidate it is offered, keeping the smallest:
    regions II-VI), the triangles sharing that edge or vertex are tried, and the voxel moves to a nearer one until
    none is nearer;
 3. **local check**: a first round, in parallel, in which each voxel next to a voxel still to check (or, on the
-   finer levels, to a band voxel) is offered the triangles of those of its 26 neighbours, then a worklist: every voxel that took a new triangle offers it to its 26 neighbours, and a neighbour that takes it
-   descends from it and joins the list, until the list is empty. Every voxel examined ends nearer to its own
+   finer levels, to a band voxel) is offered the triangles of those of its 26 neighbours, then a worklist: every
+   voxel that took a new triangle offers it to its 26 neighbours, and a neighbour that takes it descends from it and
+   joins the list, until the list is empty. Every voxel examined ends nearer to its own
    triangle than to its neighbours' and to the triangles next to its own nearest edge or vertex.
 
 Values are compared as stored (float32), so every accepted offer strictly lowers a voxel's value and the rounds end.
+
+Threads: each parallel pass is one region of one iteration per thread, in which the threads take slices (columns
+in the last pass of the transform) one at a time from a shared counter (:func:`algorithms.common.atomics.take`):
+the voxels still to check crowd into some slices, and a split fixed in advance would leave a thread waiting.
 
 Error bound
 -----------
@@ -37,8 +42,8 @@ from ``v`` to ``p`` at ``d - h sqrt(3) / 2`` from ``p`` (``d`` the band width, `
 sqrt(3)``) has a voxel ``u`` within ``h sqrt(3) / 2`` that is in the band, so the nearest band voxel ``w`` has
 ``|v - w| <= |v - u| <= D - d + h sqrt(3)``, and ``e <= |v - w| + D(w) - D <= h sqrt(3)``. From a coarse level,
 a coarse voxel ``c`` within ``h sqrt(3) / 2`` of ``v`` gives ``e(v) <= e(c) + 2 |v - c| <= e(c) + h sqrt(3)``. These
-a priori bounds are loose: when ``w`` lies on the segment, ``T_w`` is the voxel's own nearest triangle (every point of the segment has
-the same nearest point), so ``e`` comes only from ``w``'s offset from the segment (within about half a voxel) and
+a priori bounds are loose: when ``w`` lies on the segment, ``T_w`` is the voxel's own nearest triangle (every point
+of the segment has the same nearest point), so ``e`` comes only from ``w``'s offset from the segment (within about half a voxel) and
 from curvature of the mesh between the two nearest points, which the descent and the local check remove wherever
 the distance along the mesh has one minimum; what remains is near the medial axis, where two sheets are nearly
 equally far and the error is the difference of two nearly equal distances. The benchmark and the tests measure it
@@ -62,8 +67,9 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit, prange
 
+from ..common.atomics import take
 from ..common.progress import ProgressCallback, report, scaled
 from ._distance_kernels import frame_feature, point_triangle_distance2
 
@@ -135,37 +141,47 @@ def feature_rows(best, band2, sx, work, site):
     """Pass along i: ``work`` = squared distance (mm^2) to the nearest band voxel of the row, ``site`` its flat
     index (-1 where the row has none); rows in parallel."""
     nz, ny, nx = best.shape
-    for k in prange(nz):
-        f, s, v, z, out_f, out_s = _line_workspace(nx)
-        for j in range(ny):
-            base = (k * ny + j) * nx
-            for i in range(nx):
-                f[i] = 0.0 if best[k, j, i] <= band2 else np.inf
-                s[i] = base + i
-            if _envelope(f, s, nx, sx, v, z, out_f, out_s):
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+        while True:
+            k = take(queue, 1)
+            if k >= nz:
+                break
+            f, s, v, z, out_f, out_s = _line_workspace(nx)
+            for j in range(ny):
+                base = (k * ny + j) * nx
                 for i in range(nx):
-                    work[k, j, i] = out_f[i]
-                    site[k, j, i] = out_s[i]
-            else:
-                for i in range(nx):
-                    work[k, j, i] = np.inf
-                    site[k, j, i] = -1
+                    f[i] = 0.0 if best[k, j, i] <= band2 else np.inf
+                    s[i] = base + i
+                if _envelope(f, s, nx, sx, v, z, out_f, out_s):
+                    for i in range(nx):
+                        work[k, j, i] = out_f[i]
+                        site[k, j, i] = out_s[i]
+                else:
+                    for i in range(nx):
+                        work[k, j, i] = np.inf
+                        site[k, j, i] = -1
 
 
 @njit(cache=True, nogil=True, parallel=True)
 def feature_columns(work, site, sy):
     """Pass along j, in place on ``work`` and ``site``; slices in parallel."""
     nz, ny, nx = work.shape
-    for k in prange(nz):
-        f, s, v, z, out_f, out_s = _line_workspace(ny)
-        for i in range(nx):
-            for j in range(ny):
-                f[j] = work[k, j, i]
-                s[j] = site[k, j, i]
-            if _envelope(f, s, ny, sy, v, z, out_f, out_s):
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+        while True:
+            k = take(queue, 1)
+            if k >= nz:
+                break
+            f, s, v, z, out_f, out_s = _line_workspace(ny)
+            for i in range(nx):
                 for j in range(ny):
-                    work[k, j, i] = out_f[j]
-                    site[k, j, i] = out_s[j]
+                    f[j] = work[k, j, i]
+                    s[j] = site[k, j, i]
+                if _envelope(f, s, ny, sy, v, z, out_f, out_s):
+                    for j in range(ny):
+                        work[k, j, i] = out_f[j]
+                        site[k, j, i] = out_s[j]
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -174,33 +190,38 @@ def feature_slices(work, site, sz, best, nearest, frames, spacing, band2):
     voxel (kept if nearer than what it holds); columns (fixed j) in parallel, a whole (k, i) plane at a time."""
     nz, ny, nx = work.shape
     flat_nearest = nearest.reshape(-1)
-    for j in prange(ny):
-        f_plane = np.empty((nz, nx))
-        s_plane = np.empty((nz, nx), dtype=np.int32)
-        target = np.empty((nz, nx), dtype=np.int32)
-        f, s, v, z, out_f, out_s = _line_workspace(nz)
-        for k in range(nz):
-            for i in range(nx):
-                f_plane[k, i] = work[k, j, i]
-                s_plane[k, i] = site[k, j, i]
-        for i in range(nx):
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(get_num_threads()):  # j taken from a shared counter (module notes)
+        while True:
+            j = take(queue, 1)
+            if j >= ny:
+                break
+            f_plane = np.empty((nz, nx))
+            s_plane = np.empty((nz, nx), dtype=np.int32)
+            target = np.empty((nz, nx), dtype=np.int32)
+            f, s, v, z, out_f, out_s = _line_workspace(nz)
             for k in range(nz):
-                f[k] = f_plane[k, i]
-                s[k] = s_plane[k, i]
-            if _envelope(f, s, nz, sz, v, z, out_f, out_s):
-                for k in range(nz):
-                    target[k, i] = out_s[k]
-            else:
-                for k in range(nz):
-                    target[k, i] = -1
-        y = j * spacing[1]
-        for k in range(nz):
-            zz = k * spacing[2]
+                for i in range(nx):
+                    f_plane[k, i] = work[k, j, i]
+                    s_plane[k, i] = site[k, j, i]
             for i in range(nx):
-                if best[k, j, i] <= band2 or target[k, i] < 0:
-                    continue
-                candidate = flat_nearest[target[k, i]]  # a band voxel's: never written here
-                _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, zz, band2)
+                for k in range(nz):
+                    f[k] = f_plane[k, i]
+                    s[k] = s_plane[k, i]
+                if _envelope(f, s, nz, sz, v, z, out_f, out_s):
+                    for k in range(nz):
+                        target[k, i] = out_s[k]
+                else:
+                    for k in range(nz):
+                        target[k, i] = -1
+            y = j * spacing[1]
+            for k in range(nz):
+                zz = k * spacing[2]
+                for i in range(nx):
+                    if best[k, j, i] <= band2 or target[k, i] < 0:
+                        continue
+                    candidate = flat_nearest[target[k, i]]  # a band voxel's: never written here
+                    _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, zz, band2)
 
 
 @njit(cache=True, nogil=True)
@@ -224,59 +245,69 @@ def refine_round(best, nearest, frames, frame_vertices, rotation, triangle_edges
     ``rows_now`` (where :func:`settle` starts). ``changed[k]`` counts them per slice. Neighbours are read as they
     are (one updated during this round offers its newer triangle, which is marked for the worklist anyway)."""
     nz, ny, nx = best.shape
-    for k in prange(nz):
-        z = k * spacing[2]
-        count = 0
-        tried = np.empty(27, dtype=np.int64)
-        for j in range(ny):
-            active = False
-            for kk in range(max(k - 1, 0), min(k + 2, nz)):
-                for jj in range(max(j - 1, 0), min(j + 2, ny)):
-                    active |= rows_was[kk, jj]
-            if not active:
-                continue
-            y = j * spacing[1]
-            row_count = 0
-            for i in range(nx):
-                if best[k, j, i] <= band2:
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+        while True:
+            k = take(queue, 1)
+            if k >= nz:
+                break
+            z = k * spacing[2]
+            count = 0
+            tried = np.empty(27, dtype=np.int64)
+            for j in range(ny):
+                active = False
+                for kk in range(max(k - 1, 0), min(k + 2, nz)):
+                    for jj in range(max(j - 1, 0), min(j + 2, ny)):
+                        active |= rows_was[kk, jj]
+                if not active:
                     continue
-                tried[0] = nearest[k, j, i]
-                n_tried = 1
-                took = False
-                for q in range(27):
-                    di, dj, dk = q % 3 - 1, (q // 3) % 3 - 1, q // 9 - 1
-                    if q == 13:
+                y = j * spacing[1]
+                row_count = 0
+                for i in range(nx):
+                    if best[k, j, i] <= band2:
                         continue
-                    ii, jj, kk = i + di, j + dj, k + dk
-                    if ii < 0 or ii >= nx or jj < 0 or jj >= ny or kk < 0 or kk >= nz or not was[kk, jj, ii]:
-                        continue
-                    candidate = nearest[kk, jj, ii]
-                    if _already_tried(tried, n_tried, candidate):
-                        continue
-                    tried[n_tried] = candidate
-                    n_tried += 1
-                    if _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2):
-                        took = True
-                if took:
-                    _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
-                             edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z)
-                    now[k, j, i] = True
-                    row_count += 1
-            if row_count:
-                rows_now[k, j] = True
-                count += row_count
-        changed[k] = count
+                    tried[0] = nearest[k, j, i]
+                    n_tried = 1
+                    took = False
+                    for q in range(27):
+                        di, dj, dk = q % 3 - 1, (q // 3) % 3 - 1, q // 9 - 1
+                        if q == 13:
+                            continue
+                        ii, jj, kk = i + di, j + dj, k + dk
+                        if ii < 0 or ii >= nx or jj < 0 or jj >= ny or kk < 0 or kk >= nz or not was[kk, jj, ii]:
+                            continue
+                        candidate = nearest[kk, jj, ii]
+                        if _already_tried(tried, n_tried, candidate):
+                            continue
+                        tried[n_tried] = candidate
+                        n_tried += 1
+                        if _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2):
+                            took = True
+                    if took:
+                        _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
+                                 edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z)
+                        now[k, j, i] = True
+                        row_count += 1
+                if row_count:
+                    rows_now[k, j] = True
+                    count += row_count
+            changed[k] = count
 
 
 @njit(cache=True, nogil=True, parallel=True)
 def clear_rows(flags, rows):
     """Zero ``flags[k, j, :]`` and ``rows[k, j]`` wherever ``rows[k, j]`` is set."""
     nz, ny, nx = flags.shape
-    for k in prange(nz):
-        for j in range(ny):
-            if rows[k, j]:
-                flags[k, j, :] = False
-                rows[k, j] = False
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+        while True:
+            k = take(queue, 1)
+            if k >= nz:
+                break
+            for j in range(ny):
+                if rows[k, j]:
+                    flags[k, j, :] = False
+                    rows[k, j] = False
 
 
 @njit(cache=True, nogil=True)
@@ -330,25 +361,30 @@ def descend(best, nearest, frames, frame_vertices, rotation, triangle_edges, edg
     parallel; ``moved[k]`` counts the voxels of slice ``k`` that found a nearer triangle, also marked in ``marks``
     (per voxel) and ``rows`` (per row)."""
     nz, ny, nx = best.shape
-    for k in prange(nz):
-        z = k * spacing[2]
-        count = 0
-        for j in range(ny):
-            if not rows_todo[k, j]:
-                continue
-            y = j * spacing[1]
-            row_count = 0
-            for i in range(nx):
-                if best[k, j, i] <= band2 or not todo[k, j, i]:
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+        while True:
+            k = take(queue, 1)
+            if k >= nz:
+                break
+            z = k * spacing[2]
+            count = 0
+            for j in range(ny):
+                if not rows_todo[k, j]:
                     continue
-                if _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
-                            edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z):
-                    marks[k, j, i] = True
-                    row_count += 1
-            if row_count:
-                rows[k, j] = True
-                count += row_count
-        moved[k] = count
+                y = j * spacing[1]
+                row_count = 0
+                for i in range(nx):
+                    if best[k, j, i] <= band2 or not todo[k, j, i]:
+                        continue
+                    if _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
+                                edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z):
+                        marks[k, j, i] = True
+                        row_count += 1
+                if row_count:
+                    rows[k, j] = True
+                    count += row_count
+            moved[k] = count
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -358,28 +394,33 @@ def from_coarse(best, nearest, coarse, frames, spacing, band2, marks, rows):
     one triangle are marked in ``marks`` (per voxel) and ``rows`` (per row)."""
     nz, ny, nx = best.shape
     cz, cy, cx = coarse.shape
-    for k in prange(nz):
-        z = k * spacing[2]
-        tried = np.empty(8, dtype=np.int64)
-        for j in range(ny):
-            y = j * spacing[1]
-            for i in range(nx):
-                if best[k, j, i] <= band2:
-                    continue
-                n_tried = 0
-                for q in range(8):
-                    kk = min((k + (q & 1)) // 2, cz - 1)
-                    jj = min((j + ((q >> 1) & 1)) // 2, cy - 1)
-                    ii = min((i + (q >> 2)) // 2, cx - 1)
-                    candidate = coarse[kk, jj, ii]
-                    if _already_tried(tried, n_tried, candidate):
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+        while True:
+            k = take(queue, 1)
+            if k >= nz:
+                break
+            z = k * spacing[2]
+            tried = np.empty(8, dtype=np.int64)
+            for j in range(ny):
+                y = j * spacing[1]
+                for i in range(nx):
+                    if best[k, j, i] <= band2:
                         continue
-                    tried[n_tried] = candidate
-                    n_tried += 1
-                    _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2)
-                if n_tried > 1:
-                    marks[k, j, i] = True
-                    rows[k, j] = True
+                    n_tried = 0
+                    for q in range(8):
+                        kk = min((k + (q & 1)) // 2, cz - 1)
+                        jj = min((j + ((q >> 1) & 1)) // 2, cy - 1)
+                        ii = min((i + (q >> 2)) // 2, cx - 1)
+                        candidate = coarse[kk, jj, ii]
+                        if _already_tried(tried, n_tried, candidate):
+                            continue
+                        tried[n_tried] = candidate
+                        n_tried += 1
+                        _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2)
+                    if n_tried > 1:
+                        marks[k, j, i] = True
+                        rows[k, j] = True
 
 
 @njit(cache=True, nogil=True)

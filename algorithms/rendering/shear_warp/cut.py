@@ -34,7 +34,7 @@ from ...common.selection import (
     removal_normal,
     visibility,
 )
-from ...common.selection_bounds import bounds_margin, ray_interval
+from ...common.selection_bounds import bounds_margin, ray_interval, reach_box
 from .factorisation import STANDARD_AXES
 from .kernels import (
     _A_LEFT,
@@ -102,11 +102,13 @@ def composite_rle_cut(
     slice_order, pixel_i, pixel_j, fraction_i, fraction_j,
     table, shade, shading, opacity_threshold, opaque_threshold,
     image, offsets, row_start, row_stop, block, counts,
-    tools, axes, spacing, encoding, half_grid, zero_index,
+    tools, reach, axes, spacing, encoding, half_grid, zero_index,
 ):
     """:func:`~algorithms.rendering.shear_warp.kernels.composite_rle` with the tools' per-sample test (module notes).
 
-    ``tools``: packed :class:`~algorithms.common.selection.ToolSet` in the standard index frame; ``axes``: the
+    ``tools``: packed :class:`~algorithms.common.selection.ToolSet` in the standard index frame; ``reach``: ``(j
+    low, j high, k low, k high)`` of its :func:`~algorithms.common.selection_bounds.reach_box` (a line of samples
+    outside it meets no tool, and skips :func:`~algorithms.common.selection_bounds.ray_interval`); ``axes``: the
     principal axis's :data:`STANDARD_AXES`; ``spacing``: the rendered grid's ``(sx, sy, sz)``; ``encoding``,
     ``half_grid``, ``zero_index``: the normal table's quantisation (for the cut's normal with shading).
     ``counts[task, 3]`` receives the samples the tools removed.
@@ -142,7 +144,9 @@ def composite_rle_cut(
                     # first has something to composite: tested there only; outside a keep tool everything is removed.
                     bounded = False
                     untested_until = -np.inf  # samples of the line before this are surely clear of every tool
-                    tool_low = tool_high = keep_low = keep_high = removed_low = removed_high = 0.0
+                    # (a line outside the tools' reach keeps these: nothing to test, nothing clipped or removed)
+                    tool_low, tool_high, keep_low, keep_high, removed_low, removed_high = (
+                        np.inf, -np.inf, -np.inf, np.inf, 1.0, 0.0)
                     a = 0
                     while a < count:
                         u = u0 + a
@@ -175,8 +179,9 @@ def composite_rle_cut(
                             e_al, e_ar = cursor[_A_LEFT, 2], cursor[_A_RIGHT, 2]
                             e_bl, e_br = cursor[_B_LEFT, 2], cursor[_B_RIGHT, 2]
                             if not bounded:
-                                tool_low, tool_high, keep_low, keep_high, removed_low, removed_high = ray_interval(
-                                    tools, 0.0, sample_j, sample_k, 1.0, 0.0, 0.0, margin)
+                                if reach[0] <= sample_j <= reach[1] and reach[2] <= sample_k <= reach[3]:
+                                    tool_low, tool_high, keep_low, keep_high, removed_low, removed_high = ray_interval(
+                                        tools, 0.0, sample_j, sample_k, 1.0, 0.0, 0.0, margin)
                                 bounded = True
                             done = 0
                             first_i = a + fraction_i[k]
@@ -201,6 +206,26 @@ def composite_rle_cut(
                                     step = _samples_within(removed_high - sample_i, stretch - done)
                                     removed += step
                                     done += step
+                                    continue
+                                if ((sample_i < tool_low or sample_i > tool_high or sample_i < untested_until)
+                                        and keep_low <= sample_i <= keep_high):
+                                    # Surely clear of every tool, and inside every keep tool: so are the next samples
+                                    # up to where that may end; composited at once, as the uncut kernel does.
+                                    span = stretch - done
+                                    if sample_i > tool_high:
+                                        pass
+                                    elif sample_i < tool_low:
+                                        span = _samples_before(tool_low - sample_i, span)
+                                    else:
+                                        span = _samples_before(untested_until - sample_i, span)
+                                    span = _samples_within(keep_high - sample_i, span)
+                                    if sample_i < removed_low <= removed_high:
+                                        span = _samples_before(removed_low - sample_i, span)
+                                    done = _composite_stretch(
+                                        image, offsets, row_offsets, v, u, done, done + span, shown_al, shown_ar,
+                                        shown_bl, shown_br, w_al, w_ar, w_bl, w_br, e_al, e_ar, e_bl, e_br,
+                                        voxel_classes, voxel_normals, table, shade, shading, opacity_threshold,
+                                        opaque_threshold)
                                     continue
                                 tested = tool_low <= sample_i <= tool_high and sample_i >= untested_until
                                 if tested:
@@ -272,9 +297,12 @@ def composite_with_tools(copy, factorization, table, shade, shading, opacity_thr
     else:
         encoding, half_grid, zero_index = np.zeros((2, 1, 1), dtype=np.int32), 0.0, 0
     counts4 = np.zeros((counts.shape[0], 4), dtype=np.int64)
+    packed = standard.packed()
+    low, high = reach_box(packed, bounds_margin(packed, shading and standard.cut_normals))
+    reach = np.array([low[1], high[1], low[2], high[2]])
     composite_rle_cut(copy.run_lengths, copy.classes, copy.normals, copy.line_runs, copy.line_voxels, copy.shape[1],
                       copy.shape[2], f.slice_order, pixel_i, pixel_j, fraction_i, fraction_j, table, shade, shading,
-                      opacity_threshold, opaque, image, offsets, first, last, block, counts4, standard.packed(),
+                      opacity_threshold, opaque, image, offsets, first, last, block, counts4, packed, reach,
                       np.array(STANDARD_AXES[f.principal_axis], dtype=np.int64),
                       np.asarray(rendered_spacing, dtype=np.float64), encoding, half_grid, np.uint16(zero_index))
     counts[:] = counts4[:, :3]
