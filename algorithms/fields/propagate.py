@@ -43,11 +43,11 @@ sqrt(3)``) has a voxel ``u`` within ``h sqrt(3) / 2`` that is in the band, so th
 ``|v - w| <= |v - u| <= D - d + h sqrt(3)``, and ``e <= |v - w| + D(w) - D <= h sqrt(3)``. From a coarse level,
 a coarse voxel ``c`` within ``h sqrt(3) / 2`` of ``v`` gives ``e(v) <= e(c) + 2 |v - c| <= e(c) + h sqrt(3)``. These
 a priori bounds are loose: when ``w`` lies on the segment, ``T_w`` is the voxel's own nearest triangle (every point
-of the segment has the same nearest point), so ``e`` comes only from ``w``'s offset from the segment (within about half a voxel) and
-from curvature of the mesh between the two nearest points, which the descent and the local check remove wherever
-the distance along the mesh has one minimum; what remains is near the medial axis, where two sheets are nearly
-equally far and the error is the difference of two nearly equal distances. The benchmark and the tests measure it
-against exact distances (at most 0.05 voxels at 10,000 random far voxels is required; SDFGen reaches 0.084).
+of the segment has the same nearest point), so ``e`` comes only from ``w``'s offset from the segment (within about
+half a voxel) and from curvature of the mesh between the two nearest points, which the descent and the local check
+remove wherever the distance along the mesh has one minimum; what remains is near the medial axis, where two sheets
+are nearly equally far and the error is the difference of two nearly equal distances. The benchmark and the tests
+measure it against exact distances (at most 0.05 voxels at 10,000 random far voxels is required; SDFGen reaches 0.084).
 
 Coordinates: the grid's frame in mm, voxel ``(i, j, k)`` at ``(i sx, j sy, k sz)``; arrays ``(nz, ny, nx)``.
 
@@ -137,12 +137,12 @@ def _line_workspace(n):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def feature_rows(best, band2, sx, work, site):
+def feature_rows(best, band2, sx, work, site, parts):
     """Pass along i: ``work`` = squared distance (mm^2) to the nearest band voxel of the row, ``site`` its flat
     index (-1 where the row has none); rows in parallel."""
     nz, ny, nx = best.shape
     queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+    for _part in prange(parts):  # k taken from a shared counter (module notes)
         while True:
             k = take(queue, 1)
             if k >= nz:
@@ -164,11 +164,11 @@ def feature_rows(best, band2, sx, work, site):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def feature_columns(work, site, sy):
+def feature_columns(work, site, sy, parts):
     """Pass along j, in place on ``work`` and ``site``; slices in parallel."""
     nz, ny, nx = work.shape
     queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+    for _part in prange(parts):  # k taken from a shared counter (module notes)
         while True:
             k = take(queue, 1)
             if k >= nz:
@@ -185,13 +185,13 @@ def feature_columns(work, site, sy):
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def feature_slices(work, site, sz, best, nearest, frames, spacing, band2):
+def feature_slices(work, site, sz, best, nearest, frames, spacing, band2, parts):
     """Pass along k, then every voxel outside the band measures its distance to the triangle of its nearest band
     voxel (kept if nearer than what it holds); columns (fixed j) in parallel, a whole (k, i) plane at a time."""
     nz, ny, nx = work.shape
     flat_nearest = nearest.reshape(-1)
     queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(get_num_threads()):  # j taken from a shared counter (module notes)
+    for _part in prange(parts):  # j taken from a shared counter (module notes)
         while True:
             j = take(queue, 1)
             if j >= ny:
@@ -238,7 +238,7 @@ def _offer(best, nearest, k, j, i, candidate, frames, x, y, z, band2):
 
 @njit(cache=True, nogil=True, parallel=True)
 def refine_round(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces,
-                 vertex_start, vertex_faces, spacing, band2, was, now, rows_was, rows_now, changed):
+                 vertex_start, vertex_faces, spacing, band2, was, now, rows_was, rows_now, changed, parts):
     """The parallel first round of the local check: every voxel outside the band next to a voxel marked in ``was``
     (per voxel; ``rows_was``, per row ``(k, j)``) is offered the triangles of those of its 26 neighbours and
     descends from a better one; voxels that take one are marked in ``now`` /
@@ -246,7 +246,7 @@ def refine_round(best, nearest, frames, frame_vertices, rotation, triangle_edges
     are (one updated during this round offers its newer triangle, which is marked for the worklist anyway)."""
     nz, ny, nx = best.shape
     queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+    for _part in prange(parts):  # k taken from a shared counter (module notes)
         while True:
             k = take(queue, 1)
             if k >= nz:
@@ -295,11 +295,11 @@ def refine_round(best, nearest, frames, frame_vertices, rotation, triangle_edges
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def clear_rows(flags, rows):
+def clear_rows(flags, rows, parts):
     """Zero ``flags[k, j, :]`` and ``rows[k, j]`` wherever ``rows[k, j]`` is set."""
     nz, ny, nx = flags.shape
     queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+    for _part in prange(parts):  # k taken from a shared counter (module notes)
         while True:
             k = take(queue, 1)
             if k >= nz:
@@ -356,13 +356,13 @@ def _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_
 
 @njit(cache=True, nogil=True, parallel=True)
 def descend(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces, vertex_start,
-            vertex_faces, spacing, band2, todo, rows_todo, moved, marks, rows):
+            vertex_faces, spacing, band2, todo, rows_todo, moved, marks, rows, parts):
     """The mesh descent of every voxel outside the band marked in ``todo`` (rows in ``rows_todo``), slices in
     parallel; ``moved[k]`` counts the voxels of slice ``k`` that found a nearer triangle, also marked in ``marks``
     (per voxel) and ``rows`` (per row)."""
     nz, ny, nx = best.shape
     queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+    for _part in prange(parts):  # k taken from a shared counter (module notes)
         while True:
             k = take(queue, 1)
             if k >= nz:
@@ -388,14 +388,14 @@ def descend(best, nearest, frames, frame_vertices, rotation, triangle_edges, edg
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def from_coarse(best, nearest, coarse, frames, spacing, band2, marks, rows):
+def from_coarse(best, nearest, coarse, frames, spacing, band2, marks, rows, parts):
     """Every voxel outside the band is offered the triangles of the (up to 8) voxels of the half-resolution grid
     ``coarse`` (voxel ``(i, j, k)`` there is voxel ``(2i, 2j, 2k)`` here) around it; the voxels offered more than
     one triangle are marked in ``marks`` (per voxel) and ``rows`` (per row)."""
     nz, ny, nx = best.shape
     cz, cy, cx = coarse.shape
     queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(get_num_threads()):  # k taken from a shared counter (module notes)
+    for _part in prange(parts):  # k taken from a shared counter (module notes)
         while True:
             k = take(queue, 1)
             if k >= nz:
@@ -494,6 +494,7 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
     if best.size >= np.iinfo(np.int32).max:
         raise ValueError(f"a grid of {best.size:,} voxels is too large for propagation (at most 2^31 - 1)")
     start = time.perf_counter()
+    parts = get_num_threads()  # the parallel passes' threads, each taking slices from a shared counter
     frames = mesh.frames
     seeds = best <= band2
     seeds &= nearest >= 0
@@ -511,7 +512,7 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
                           progress=scaled(progress, 0.0, 0.3))
         del coarse_best
         levels += inner["levels"]
-        from_coarse(best, nearest, coarse, frames, spacing, band2, todo, rows_todo)
+        from_coarse(best, nearest, coarse, frames, spacing, band2, todo, rows_todo, parts)
         del coarse
         # the band's own triangles are offered to the voxels next to it (the coarse level has only every second)
         in_band = best <= band2
@@ -531,9 +532,9 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
             band2 = min(band2, best[k, j, i])
         work = np.empty(best.shape, dtype=np.float32)
         site = np.empty(best.shape, dtype=np.int32)
-        feature_rows(best, band2, spacing[0], work, site)
-        feature_columns(work, site, spacing[1])
-        feature_slices(work, site, spacing[2], best, nearest, frames, spacing, band2)
+        feature_rows(best, band2, spacing[0], work, site, parts)
+        feature_columns(work, site, spacing[1], parts)
+        feature_slices(work, site, spacing[2], best, nearest, frames, spacing, band2, parts)
         del work, site
         todo[:] = True
         rows_todo[:] = True
@@ -550,15 +551,15 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
     rows_now = np.zeros(best.shape[:2], dtype=np.bool_)
     tick = time.perf_counter()
     descend(best, nearest, frames, mesh.frame_vertices, mesh.rotation, triangle_edges, edge_start, edge_faces,
-            vertex_start, vertex_faces, spacing, band2, todo, rows_todo, moved, now, rows_now)
+            vertex_start, vertex_faces, spacing, band2, todo, rows_todo, moved, now, rows_now, parts)
     timing["descent"] = time.perf_counter() - tick
     tick = time.perf_counter()
     report(progress, 0.5)
     changed_per_pass = [int(np.count_nonzero(todo))]
-    clear_rows(now, rows_now)
+    clear_rows(now, rows_now, parts)
     changed[:] = 0
     refine_round(best, nearest, frames, mesh.frame_vertices, mesh.rotation, triangle_edges, edge_start,
-                 edge_faces, vertex_start, vertex_faces, spacing, band2, was, now, rows_was, rows_now, changed)
+                 edge_faces, vertex_start, vertex_faces, spacing, band2, was, now, rows_was, rows_now, changed, parts)
     changed_per_pass.append(int(changed.sum()))
     timing["first_round"] = time.perf_counter() - tick
     del was, rows_was, todo, rows_todo

@@ -285,25 +285,33 @@ def composite_rle_cut(
         counts[task, 3] = removed
 
 
-def composite_with_tools(copy, factorization, table, shade, shading, opacity_threshold, opaque, image, offsets,
-                         first, last, block, counts, tools: ToolSet, rendered_spacing, normal_table) -> int:
-    """Composite rows ``[first, last)`` of a parallel, unjittered frame with ``tools`` (volume frame, mm) into
-    ``image``; ``counts`` ``(tasks, 3)`` as the uncut kernel fills it. Returns the samples the tools removed."""
+def tools_for_frame(tools: ToolSet, factorization, rendered_spacing, normal_table, shading) -> tuple:
+    """The tool arguments of :func:`composite_rle_cut` for one parallel frame (``tools`` in the volume frame, mm),
+    made once per frame and shared by all its bands of rows: the packed tools in the standard index frame, their
+    reach, the principal axis's :data:`STANDARD_AXES`, the rendered spacing and the normal table's quantisation."""
     f = factorization
-    pixel_i, pixel_j, fraction_i, fraction_j = f.slice_offsets()
     standard = tools_in_standard_frame(tools, f.principal_axis, rendered_spacing)
     if normal_table is not None:
         encoding, half_grid, zero_index = normal_table.encoding, float(normal_table.grid // 2), normal_table.zero_index
     else:
         encoding, half_grid, zero_index = np.zeros((2, 1, 1), dtype=np.int32), 0.0, 0
-    counts4 = np.zeros((counts.shape[0], 4), dtype=np.int64)
     packed = standard.packed()
     low, high = reach_box(packed, bounds_margin(packed, shading and standard.cut_normals))
     reach = np.array([low[1], high[1], low[2], high[2]])
+    return (packed, reach, np.array(STANDARD_AXES[f.principal_axis], dtype=np.int64),
+            np.asarray(rendered_spacing, dtype=np.float64), encoding, half_grid, np.uint16(zero_index))
+
+
+def composite_with_tools(copy, factorization, slice_offsets, table, shade, shading, opacity_threshold, opaque, image,
+                         offsets, first, last, block, counts, frame_tools: tuple) -> int:
+    """Composite rows ``[first, last)`` of a parallel, unjittered frame with the tools of ``frame_tools``
+    (:func:`tools_for_frame`) into ``image``; ``slice_offsets``: the factorisation's ``slice_offsets()``; ``counts``
+    ``(tasks, 3)`` as the uncut kernel fills it. Returns the samples the tools removed."""
+    f = factorization
+    pixel_i, pixel_j, fraction_i, fraction_j = slice_offsets
+    counts4 = np.zeros((counts.shape[0], 4), dtype=np.int64)
     composite_rle_cut(copy.run_lengths, copy.classes, copy.normals, copy.line_runs, copy.line_voxels, copy.shape[1],
                       copy.shape[2], f.slice_order, pixel_i, pixel_j, fraction_i, fraction_j, table, shade, shading,
-                      opacity_threshold, opaque, image, offsets, first, last, block, counts4, packed, reach,
-                      np.array(STANDARD_AXES[f.principal_axis], dtype=np.int64),
-                      np.asarray(rendered_spacing, dtype=np.float64), encoding, half_grid, np.uint16(zero_index))
+                      opacity_threshold, opaque, image, offsets, first, last, block, counts4, *frame_tools)
     counts[:] = counts4[:, :3]
     return int(counts4[:, 3].sum())

@@ -20,7 +20,7 @@ from ...common.transfer import TransferTable, checked_table
 from ...common.sampling import sampled_volume
 from ...common.validation import validated_distance, validated_image_size, validated_spacing
 from . import kernels, resampling
-from .cut import composite_with_tools
+from .cut import composite_with_tools, tools_for_frame
 from .encoding import MAX_SCANLINE, DenseVolume, NormalTable, RunLengthVolume, checked_grid
 from .factorisation import AXIS_NAMES, STANDARD_AXES, factorize
 from .jitter import composite_jittered
@@ -339,6 +339,10 @@ class ShearWarpRenderer:
         # One parallel region per frame; with a progress callback, bands of rows so it can report and cancel.
         bands = np.linspace(0, rows, (min(8, rows) if progress is not None else 1) + 1).astype(np.int64)
         begin = time.perf_counter()
+        # once per frame, shared by the bands
+        slice_offsets = None if scanlines else f.slice_offsets()
+        frame_tools = None if tools is None else tools_for_frame(tools, f, self.spacing, self.normal_table,
+                                                                 self.shading)
         for band, (first, last) in enumerate(zip(bands[:-1], bands[1:])):
             if self.jitter:
                 composite_jittered(self._values, np.array(STANDARD_AXES[f.principal_axis], dtype=np.int64),
@@ -356,11 +360,11 @@ class ShearWarpRenderer:
                                     use_ratio, image, offsets, first, last, _ROW_BLOCK, counts)
             elif tools is not None:
                 # the tools' test per sample (source 002, 2.5): see .cut
-                removed += composite_with_tools(copy, f, table, shade, self.shading, self.opacity_threshold, opaque,
-                                                image, offsets, first, last, _ROW_BLOCK, counts, tools, self.spacing,
-                                                self.normal_table)
+                removed += composite_with_tools(copy, f, slice_offsets, table, shade, self.shading,
+                                                self.opacity_threshold, opaque, image, offsets, first, last,
+                                                _ROW_BLOCK, counts, frame_tools)
             else:
-                pixel_i, pixel_j, fraction_i, fraction_j = f.slice_offsets()
+                pixel_i, pixel_j, fraction_i, fraction_j = slice_offsets
                 arguments = (f.slice_order, pixel_i, pixel_j, fraction_i, fraction_j, table, shade, self.shading,
                              self.opacity_threshold, opaque, image, offsets, first, last, _ROW_BLOCK, counts)
                 if self.use_rle:
