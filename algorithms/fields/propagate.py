@@ -236,78 +236,103 @@ def _offer(best, nearest, k, j, i, candidate, frames, x, y, z, band2):
     return False
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _gather_column(nearest, was, k0, k1, j0, j1, i, columns) -> int:
+    """The distinct triangles of the voxels marked in ``was`` among the (up to 9) voxels ``(k0:k1, j0:j1, i)`` into
+    ``columns[i]``; returns how many."""
+    n = 0
+    for kk in range(k0, k1):
+        for jj in range(j0, j1):
+            if was[kk, jj, i]:
+                candidate = nearest[kk, jj, i]
+                seen = False
+                for r in range(n):
+                    if columns[i, r] == candidate:
+                        seen = True
+                        break
+                if not seen:
+                    columns[i, n] = candidate
+                    n += 1
+    return n
+
+
 @njit(cache=True, nogil=True, parallel=True)
 def refine_round(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces,
-                 vertex_start, vertex_faces, spacing, band2, was, now, rows_was, rows_now, changed, parts):
+                 vertex_start, vertex_faces, spacing, band2, was, now, rows_was, rows_now, changed, coarse, parts):
     """The parallel first round of the local check: every voxel outside the band next to a voxel marked in ``was``
     (per voxel; ``rows_was``, per row ``(k, j)``) is offered the triangles of those of its 26 neighbours and
-    descends from a better one; voxels that take one are marked in ``now`` /
-    ``rows_now`` (where :func:`settle` starts). ``changed[k]`` counts them per slice. Neighbours are read as they
-    are (one updated during this round offers its newer triangle, which is marked for the worklist anyway)."""
+    descends from a better one; voxels that take one are marked in ``now`` / ``rows_now`` (where :func:`settle`
+    starts). ``changed[k]`` counts them per slice.
+
+    A row's neighbour triangles are gathered once per column of 3 x 3 voxels (each column serves three voxels of
+    the row), before the row is visited; a neighbour updated in this round is marked in ``now`` and offers its new
+    triangle in the worklist. The triangles a voxel already measured, its own and (on a finer level, ``coarse`` of
+    more than one voxel) those of the coarse voxels around it that :func:`from_coarse` offered, are not measured
+    again: each thread stamps a triangle with the flat index of the voxel that measured it last (a lookup in place
+    of a search through the voxel's list)."""
     nz, ny, nx = best.shape
+    cz, cy, cx = coarse.shape
+    from_coarser = coarse.size > 1
     queue = np.zeros(1, dtype=np.int64)
     for _part in prange(parts):  # k taken from a shared counter (module notes)
+        columns = np.empty((nx, 9), dtype=np.int64)
+        in_column = np.empty(nx, dtype=np.int64)
+        stamp = np.full(frames.shape[0], -1, dtype=np.int64)  # stamp[t] == v: voxel v measured triangle t
         while True:
             k = take(queue, 1)
             if k >= nz:
                 break
             z = k * spacing[2]
+            k0, k1 = max(k - 1, 0), min(k + 2, nz)
             count = 0
-            tried = np.empty(27, dtype=np.int64)
             for j in range(ny):
+                j0, j1 = max(j - 1, 0), min(j + 2, ny)
                 active = False
-                for kk in range(max(k - 1, 0), min(k + 2, nz)):
-                    for jj in range(max(j - 1, 0), min(j + 2, ny)):
+                for kk in range(k0, k1):
+                    for jj in range(j0, j1):
                         active |= rows_was[kk, jj]
                 if not active:
                     continue
+                for i in range(nx):
+                    in_column[i] = _gather_column(nearest, was, k0, k1, j0, j1, i, columns)
                 y = j * spacing[1]
                 row_count = 0
                 for i in range(nx):
                     if best[k, j, i] <= band2:
                         continue
-                    tried[0] = nearest[k, j, i]
-                    n_tried = 1
+                    v = (k * ny + j) * nx + i
+                    if nearest[k, j, i] >= 0:
+                        stamp[nearest[k, j, i]] = v
+                    coarse_listed = not from_coarser
                     took = False
-                    for q in range(27):
-                        di, dj, dk = q % 3 - 1, (q // 3) % 3 - 1, q // 9 - 1
-                        if q == 13:
-                            continue
-                        ii, jj, kk = i + di, j + dj, k + dk
-                        if ii < 0 or ii >= nx or jj < 0 or jj >= ny or kk < 0 or kk >= nz or not was[kk, jj, ii]:
-                            continue
-                        candidate = nearest[kk, jj, ii]
-                        if _already_tried(tried, n_tried, candidate):
-                            continue
-                        tried[n_tried] = candidate
-                        n_tried += 1
-                        if _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2):
-                            took = True
+                    x = i * spacing[0]
+                    for ii in range(max(i - 1, 0), min(i + 2, nx)):
+                        for r in range(in_column[ii]):
+                            candidate = columns[ii, r]
+                            if candidate < 0 or stamp[candidate] == v:
+                                continue
+                            if not coarse_listed:  # listed only when some neighbour offers something new
+                                coarse_listed = True
+                                for q in range(8):
+                                    other = coarse[min((k + (q & 1)) // 2, cz - 1),
+                                                   min((j + ((q >> 1) & 1)) // 2, cy - 1),
+                                                   min((i + (q >> 2)) // 2, cx - 1)]
+                                    if other >= 0:
+                                        stamp[other] = v
+                                if stamp[candidate] == v:
+                                    continue
+                            stamp[candidate] = v
+                            if _offer(best, nearest, k, j, i, candidate, frames, x, y, z, band2):
+                                took = True
                     if took:
                         _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
-                                 edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z)
+                                 edge_faces, vertex_start, vertex_faces, x, y, z)
                         now[k, j, i] = True
                         row_count += 1
                 if row_count:
                     rows_now[k, j] = True
                     count += row_count
             changed[k] = count
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def clear_rows(flags, rows, parts):
-    """Zero ``flags[k, j, :]`` and ``rows[k, j]`` wherever ``rows[k, j]`` is set."""
-    nz, ny, nx = flags.shape
-    queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(parts):  # k taken from a shared counter (module notes)
-        while True:
-            k = take(queue, 1)
-            if k >= nz:
-                break
-            for j in range(ny):
-                if rows[k, j]:
-                    flags[k, j, :] = False
-                    rows[k, j] = False
 
 
 @njit(cache=True, nogil=True)
@@ -356,10 +381,9 @@ def _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_
 
 @njit(cache=True, nogil=True, parallel=True)
 def descend(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces, vertex_start,
-            vertex_faces, spacing, band2, todo, rows_todo, moved, marks, rows, parts):
-    """The mesh descent of every voxel outside the band marked in ``todo`` (rows in ``rows_todo``), slices in
-    parallel; ``moved[k]`` counts the voxels of slice ``k`` that found a nearer triangle, also marked in ``marks``
-    (per voxel) and ``rows`` (per row)."""
+            vertex_faces, spacing, band2, parts):
+    """The mesh descent of every voxel outside the band, slices in parallel (the coarsest level's; on finer levels
+    :func:`from_coarse` descends as it goes)."""
     nz, ny, nx = best.shape
     queue = np.zeros(1, dtype=np.int64)
     for _part in prange(parts):  # k taken from a shared counter (module notes)
@@ -368,57 +392,49 @@ def descend(best, nearest, frames, frame_vertices, rotation, triangle_edges, edg
             if k >= nz:
                 break
             z = k * spacing[2]
-            count = 0
             for j in range(ny):
-                if not rows_todo[k, j]:
-                    continue
                 y = j * spacing[1]
-                row_count = 0
                 for i in range(nx):
-                    if best[k, j, i] <= band2 or not todo[k, j, i]:
-                        continue
-                    if _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
-                                edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z):
-                        marks[k, j, i] = True
-                        row_count += 1
-                if row_count:
-                    rows[k, j] = True
-                    count += row_count
-            moved[k] = count
+                    if best[k, j, i] > band2:
+                        _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges,
+                                 edge_start, edge_faces, vertex_start, vertex_faces, i * spacing[0], y, z)
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def from_coarse(best, nearest, coarse, frames, spacing, band2, marks, rows, parts):
+def from_coarse(best, nearest, coarse, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces,
+                vertex_start, vertex_faces, spacing, band2, marks, rows, parts):
     """Every voxel outside the band is offered the triangles of the (up to 8) voxels of the half-resolution grid
-    ``coarse`` (voxel ``(i, j, k)`` there is voxel ``(2i, 2j, 2k)`` here) around it; the voxels offered more than
-    one triangle are marked in ``marks`` (per voxel) and ``rows`` (per row)."""
+    ``coarse`` (voxel ``(i, j, k)`` there is voxel ``(2i, 2j, 2k)`` here) around it; a voxel offered more than one
+    triangle descends on the mesh from the best (while its triangle's frame is still in cache) and is marked in
+    ``marks`` (per voxel) and ``rows`` (per row)."""
     nz, ny, nx = best.shape
     cz, cy, cx = coarse.shape
     queue = np.zeros(1, dtype=np.int64)
     for _part in prange(parts):  # k taken from a shared counter (module notes)
+        tried = np.empty(8, dtype=np.int64)
         while True:
             k = take(queue, 1)
             if k >= nz:
                 break
             z = k * spacing[2]
-            tried = np.empty(8, dtype=np.int64)
             for j in range(ny):
                 y = j * spacing[1]
                 for i in range(nx):
                     if best[k, j, i] <= band2:
                         continue
+                    x = i * spacing[0]
                     n_tried = 0
                     for q in range(8):
-                        kk = min((k + (q & 1)) // 2, cz - 1)
-                        jj = min((j + ((q >> 1) & 1)) // 2, cy - 1)
-                        ii = min((i + (q >> 2)) // 2, cx - 1)
-                        candidate = coarse[kk, jj, ii]
+                        candidate = coarse[min((k + (q & 1)) // 2, cz - 1), min((j + ((q >> 1) & 1)) // 2, cy - 1),
+                                           min((i + (q >> 2)) // 2, cx - 1)]
                         if _already_tried(tried, n_tried, candidate):
                             continue
                         tried[n_tried] = candidate
                         n_tried += 1
-                        _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2)
+                        _offer(best, nearest, k, j, i, candidate, frames, x, y, z, band2)
                     if n_tried > 1:
+                        _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_edges, edge_start,
+                                 edge_faces, vertex_start, vertex_faces, x, y, z)
                         marks[k, j, i] = True
                         rows[k, j] = True
 
@@ -487,7 +503,8 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
     every second voxel (recursively); otherwise the triangle of its nearest band voxel (the feature transform).
     Then the mesh descent and the local check (one parallel round, then the worklist until nothing changes).
     Returns counts (``changes_per_pass``: voxels still to check, changed by the first round, by the worklist) and
-    seconds for the report.
+    seconds for the report (``candidates``, coarser levels and the descent included; ``first_round``;
+    ``worklist``).
     """
     spacing = np.asarray(spacing, dtype=np.float64)
     band2 = np.float32(band_mm) ** 2 if np.isfinite(band_mm) else np.float32(np.inf)
@@ -496,6 +513,10 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
     start = time.perf_counter()
     parts = get_num_threads()  # the parallel passes' threads, each taking slices from a shared counter
     frames = mesh.frames
+    mesh.with_topology()
+    _, edge_start, edge_faces, vertex_start, vertex_faces, triangle_edges = mesh.topology
+    topology = (mesh.frame_vertices, mesh.rotation, triangle_edges, edge_start, edge_faces, vertex_start,
+                vertex_faces)
     seeds = best <= band2
     seeds &= nearest >= 0
     n_seeds = int(np.count_nonzero(seeds))
@@ -512,8 +533,7 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
                           progress=scaled(progress, 0.0, 0.3))
         del coarse_best
         levels += inner["levels"]
-        from_coarse(best, nearest, coarse, frames, spacing, band2, todo, rows_todo, parts)
-        del coarse
+        from_coarse(best, nearest, coarse, frames, *topology, spacing, band2, todo, rows_todo, parts)
         # the band's own triangles are offered to the voxels next to it (the coarse level has only every second)
         in_band = best <= band2
         todo |= in_band
@@ -538,36 +558,27 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
         del work, site
         todo[:] = True
         rows_todo[:] = True
+        descend(best, nearest, frames, *topology, spacing, band2, parts)
+        coarse = np.zeros((1, 1, 1), dtype=nearest.dtype)  # no coarser level whose offers the first round can skip
     timing = {"candidates": time.perf_counter() - start}
-    report(progress, 0.4)
-    mesh.with_topology()
-    _, edge_start, edge_faces, vertex_start, vertex_faces, triangle_edges = mesh.topology
-    moved = np.zeros(best.shape[0], dtype=np.int64)
-    changed = np.zeros(best.shape[0], dtype=np.int64)
-    # the first round of the local check looks next to every voxel still to check; later rounds only next to the
-    # voxels that changed
-    was, rows_was = todo, rows_todo
-    now = np.zeros(best.shape, dtype=np.bool_)
-    rows_now = np.zeros(best.shape[:2], dtype=np.bool_)
-    tick = time.perf_counter()
-    descend(best, nearest, frames, mesh.frame_vertices, mesh.rotation, triangle_edges, edge_start, edge_faces,
-            vertex_start, vertex_faces, spacing, band2, todo, rows_todo, moved, now, rows_now, parts)
-    timing["descent"] = time.perf_counter() - tick
-    tick = time.perf_counter()
     report(progress, 0.5)
     changed_per_pass = [int(np.count_nonzero(todo))]
-    clear_rows(now, rows_now, parts)
-    changed[:] = 0
-    refine_round(best, nearest, frames, mesh.frame_vertices, mesh.rotation, triangle_edges, edge_start,
-                 edge_faces, vertex_start, vertex_faces, spacing, band2, was, now, rows_was, rows_now, changed, parts)
+    # the first round of the local check looks next to every voxel still to check; later rounds only next to the
+    # voxels that changed
+    now = np.zeros(best.shape, dtype=np.bool_)
+    rows_now = np.zeros(best.shape[:2], dtype=np.bool_)
+    changed = np.zeros(best.shape[0], dtype=np.int64)
+    tick = time.perf_counter()
+    refine_round(best, nearest, frames, *topology, spacing, band2, todo, now, rows_todo, rows_now, changed, coarse,
+                 parts)
     changed_per_pass.append(int(changed.sum()))
     timing["first_round"] = time.perf_counter() - tick
-    del was, rows_was, todo, rows_todo
+    del todo, rows_todo, coarse
     report(progress, 0.7)
-    changed_per_pass.append(settle(best, nearest, frames, mesh.frame_vertices, mesh.rotation, triangle_edges,
-                                   edge_start, edge_faces, vertex_start, vertex_faces, spacing, band2,
+    tick = time.perf_counter()
+    changed_per_pass.append(settle(best, nearest, frames, *topology, spacing, band2,
                                    np.flatnonzero(now.reshape(-1)), now))
-    timing["local_check"] = time.perf_counter() - tick
+    timing["worklist"] = time.perf_counter() - tick
     report(progress, 1.0)
     return {"seed_voxels": n_seeds, "levels": levels, "changes_per_pass": changed_per_pass,
             "propagation_seconds": timing}
