@@ -75,7 +75,8 @@ class ToolSet:
     which cut samples take the tool's normal, ``cut_normals`` False on the cheap path while a tool moves.
     ``grid_leaps`` (laid out as ``grid_values``) holds the grid tools' leap depth tables (:func:`grid_leap_depths`)
     made for ``leap_key = (evaluation, width)``; ``leap`` False turns the leap off (every sample is tested).
-    ``bounds`` False turns the per-ray bounds off (:func:`~algorithms.common.selection_bounds.ray_interval`: every sample of a ray is tested).
+    ``bounds`` False turns the per-ray bounds off (:func:`~algorithms.common.selection_bounds.ray_interval`: every
+    sample of a ray is tested).
     ``grid_clears`` (laid out as ``grid_values``) holds the grid tools' clearance tables (:func:`grid_clear_depths`)
     made for removal values of at least ``clear_margin``; they serve while every margin a renderer tests against is
     no larger (:meth:`grid_clears_valid`).
@@ -152,7 +153,8 @@ class ToolSet:
         return self.evaluation == "binary" or self.leap_key == (self.evaluation, self.width)
 
     def largest_margin(self) -> float:
-        """The largest test margin a renderer can use with these settings (see :func:`~algorithms.common.selection_bounds.bounds_margin`)."""
+        """The largest test margin a renderer can use with these settings (see
+        :func:`~algorithms.common.selection_bounds.bounds_margin`)."""
         return max(0.0 if self.evaluation == "binary" else 0.5 * self.width, self.band if self.cut_normals else 0.0)
 
     def grid_clears_valid(self) -> bool:
@@ -252,11 +254,18 @@ def _shape_distance(kind, p0, p1, p2, x, y, z, values, offset, nx, ny, nz):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def to_tool(matrices, t, x, y, z):
+    """The point ``(x, y, z)`` (renderer frame) in tool ``t``'s own frame. Indexed in place: a view of one matrix
+    would be reference-counted, which costs more than the arithmetic."""
+    return (matrices[t, 0, 0] * x + matrices[t, 0, 1] * y + matrices[t, 0, 2] * z + matrices[t, 0, 3],
+            matrices[t, 1, 0] * x + matrices[t, 1, 1] * y + matrices[t, 1, 2] * z + matrices[t, 1, 3],
+            matrices[t, 2, 0] * x + matrices[t, 2, 1] * y + matrices[t, 2, 2] * z + matrices[t, 2, 3])
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _tool_distance(kinds, matrices, params, offsets, shapes, values, t, x, y, z):
     """:func:`_shape_distance` of tool ``t`` at ``(x, y, z)`` given in the renderer's frame."""
-    lx = matrices[t, 0, 0] * x + matrices[t, 0, 1] * y + matrices[t, 0, 2] * z + matrices[t, 0, 3]
-    ly = matrices[t, 1, 0] * x + matrices[t, 1, 1] * y + matrices[t, 1, 2] * z + matrices[t, 1, 3]
-    lz = matrices[t, 2, 0] * x + matrices[t, 2, 1] * y + matrices[t, 2, 2] * z + matrices[t, 2, 3]
+    lx, ly, lz = to_tool(matrices, t, x, y, z)
     return _shape_distance(kinds[t], params[t, 0], params[t, 1], params[t, 2], lx, ly, lz, values, offsets[t],
                            shapes[t, 0], shapes[t, 1], shapes[t, 2])
 
@@ -344,9 +353,7 @@ def leap_at(tools, x, y, z):
         depth = 0.0
         if kinds[t] == GRID:
             # Outside a keep tool's grid everything is removed: as far as the grid's box.
-            lx = matrices[t, 0, 0] * x + matrices[t, 0, 1] * y + matrices[t, 0, 2] * z + matrices[t, 0, 3]
-            ly = matrices[t, 1, 0] * x + matrices[t, 1, 1] * y + matrices[t, 1, 2] * z + matrices[t, 1, 3]
-            lz = matrices[t, 2, 0] * x + matrices[t, 2, 1] * y + matrices[t, 2, 2] * z + matrices[t, 2, 3]
+            lx, ly, lz = to_tool(matrices, t, x, y, z)
             depth = _grid_table_entry(values, base + offsets[t], shapes[t, 0], shapes[t, 1], shapes[t, 2], lx, ly, lz,
                                       True, modes[t] == KEEP)
         else:
@@ -381,9 +388,7 @@ def clear_at(tools, x, y, z, margin):
         clearance = 0.0
         if kinds[t] == GRID:
             # Outside a remove tool's grid nothing is removed: clear as far as the grid's box.
-            lx = matrices[t, 0, 0] * x + matrices[t, 0, 1] * y + matrices[t, 0, 2] * z + matrices[t, 0, 3]
-            ly = matrices[t, 1, 0] * x + matrices[t, 1, 1] * y + matrices[t, 1, 2] * z + matrices[t, 1, 3]
-            lz = matrices[t, 2, 0] * x + matrices[t, 2, 1] * y + matrices[t, 2, 2] * z + matrices[t, 2, 3]
+            lx, ly, lz = to_tool(matrices, t, x, y, z)
             clearance = _grid_table_entry(values, base + offsets[t], shapes[t, 0], shapes[t, 1], shapes[t, 2], lx, ly,
                                           lz, tables, modes[t] == REMOVE)
         else:

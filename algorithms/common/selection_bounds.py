@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .selection import BINARY, BOX, CYLINDER, GRID, HALFSPACE, REMOVE, SPHERE
+from .selection import BINARY, BOX, CYLINDER, GRID, HALFSPACE, REMOVE, SPHERE, to_tool
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -106,10 +106,7 @@ def ray_interval(tools, ox, oy, oz, dx, dy, dz, margin):
         return -np.inf, np.inf, keep_low, keep_high, removed_low, removed_high
     ramp = 0.0 if settings[0] == BINARY else 0.5 * settings[1]
     for t in range(kinds.shape[0]):
-        # (Indexed in place: a view of one matrix would be reference-counted, which costs more than the arithmetic.)
-        ax = matrices[t, 0, 0] * ox + matrices[t, 0, 1] * oy + matrices[t, 0, 2] * oz + matrices[t, 0, 3]
-        ay = matrices[t, 1, 0] * ox + matrices[t, 1, 1] * oy + matrices[t, 1, 2] * oz + matrices[t, 1, 3]
-        az = matrices[t, 2, 0] * ox + matrices[t, 2, 1] * oy + matrices[t, 2, 2] * oz + matrices[t, 2, 3]
+        ax, ay, az = to_tool(matrices, t, ox, oy, oz)
         bx = matrices[t, 0, 0] * dx + matrices[t, 0, 1] * dy + matrices[t, 0, 2] * dz
         by = matrices[t, 1, 0] * dx + matrices[t, 1, 1] * dy + matrices[t, 1, 2] * dz
         bz = matrices[t, 2, 0] * dx + matrices[t, 2, 1] * dy + matrices[t, 2, 2] * dz
