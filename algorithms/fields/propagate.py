@@ -10,29 +10,30 @@ discretisation error; here, as in closest-point propagation (Danielsson 1980; Ma
 sweeps of Batty's SDFGen), what travels is the index of a nearest triangle, and every voxel measures its own exact
 distance to each candidate it is offered, keeping the smallest:
 
-1. **candidates**: on a grid of fewer than :data:`COARSE_FROM` voxels along some axis, the exact separable
-   Euclidean distance transform of Felzenszwalb and Huttenlocher (2012; the lower envelope of parabolas, as in
-   Meijster et al. 2000), one pass per axis with the grid's own (possibly anisotropic) spacing, every line in
-   parallel, gives every voxel its *nearest band voxel* ``w`` (exact, ties aside), and the voxel measures its
+1. **candidates**: on a grid of fewer than :data:`COARSE_FROM` voxels along some axis, the exact separable Euclidean
+   distance transform of Felzenszwalb and Huttenlocher (2012; the lower envelope of parabolas, as in Meijster et al.
+   2000; :mod:`._feature_transform`), one pass per axis with the grid's own (possibly anisotropic) spacing, every
+   line in parallel, gives every voxel its *nearest band voxel* ``w`` (exact, ties aside), and the voxel measures its
    distance to ``w``'s nearest triangle (O(N)). On larger grids the whole propagation runs first on every second
-   voxel (recursively), and each voxel measures the triangles of the (up to 8) coarse voxels around it; a voxel
-   whose coarse neighbours all hold one triangle is taken as settled and skips step 2 and the first round of step
-   3 (a heuristic: the regions of nearest points are close to convex at the scale of a cell, but not exactly, since
-   their borders are curved where an edge or a vertex faces a face; the measured errors include it);
+   voxel (recursively), and each voxel measures the triangles of the (up to 8) coarse voxels around it; a voxel whose
+   coarse neighbours all hold one triangle is taken as settled and skips step 2 and the first round of step 3 (a
+   heuristic: the regions of nearest points are close to convex at the scale of a cell, but not exactly, since their
+   borders are curved where an edge or a vertex faces a face; the measured errors include it);
 2. **mesh descent**: if the point of the voxel's triangle nearest to it lies on an edge or at a vertex (the source's
    regions II-VI), the triangles sharing that edge or vertex are tried, and the voxel moves to a nearer one until
    none is nearer;
 3. **local check**: a first round, in parallel, in which each voxel next to a voxel still to check (or, on the
    finer levels, to a band voxel) is offered the triangles of those of its 26 neighbours, then a worklist: every
    voxel that took a new triangle offers it to its 26 neighbours, and a neighbour that takes it descends from it and
-   joins the list, until the list is empty. Every voxel examined ends nearer to its own
-   triangle than to its neighbours' and to the triangles next to its own nearest edge or vertex.
+   joins the list, until the list is empty (two slabs at once, one thread each, then the voxels at the cut between
+   them; :func:`settle`). Every voxel examined ends nearer to its own triangle than to its neighbours' and to the
+   triangles next to its own nearest edge or vertex.
 
 Values are compared as stored (float32), so every accepted offer strictly lowers a voxel's value and the rounds end.
 
-Threads: each parallel pass is one region of one iteration per thread, in which the threads take slices (columns
-in the last pass of the transform) one at a time from a shared counter (:func:`algorithms.common.atomics.take`):
-the voxels still to check crowd into some slices, and a split fixed in advance would leave a thread waiting.
+Threads: each parallel pass is one region of one iteration per thread, in which the threads take slices one at a
+time from a shared counter (:func:`algorithms.common.atomics.take`): the voxels still to check crowd into some
+slices, and a split fixed in advance would leave a thread waiting.
 
 Error bound
 -----------
@@ -72,6 +73,7 @@ from numba import get_num_threads, njit, prange
 from ..common.atomics import take
 from ..common.progress import ProgressCallback, report, scaled
 from ._distance_kernels import frame_feature, point_triangle_distance2
+from ._feature_transform import feature_columns, feature_rows, feature_slices
 
 __all__ = ["propagate"]
 
@@ -89,142 +91,6 @@ def _already_tried(tried, n_tried, candidate) -> bool:
 
 
 @njit(cache=True, nogil=True)
-def _envelope(f, site, n, h, v, z, out_f, out_site):
-    """1-D squared distance transform of ``f`` (``inf``: no site) on positions ``q h``: ``out_f[q] = min_p f[p] +
-    (q h - p h)^2`` and ``out_site[q]`` = ``site`` of the minimising ``p`` (the lower envelope of parabolas,
-    Felzenszwalb and Huttenlocher); ``v`` (n) and ``z`` (n + 1) are work space. Returns False when no site."""
-    top = -1
-    for q in range(n):
-        fq = f[q]
-        if fq == np.inf:
-            continue
-        xq = q * h
-        while top >= 0:
-            p = v[top]
-            xp = p * h
-            s = ((fq + xq * xq) - (f[p] + xp * xp)) / (2.0 * (xq - xp))
-            if s <= z[top]:
-                top -= 1
-            else:
-                top += 1
-                v[top] = q
-                z[top] = s
-                break
-        if top < 0:
-            top = 0
-            v[0] = q
-            z[0] = -np.inf
-    if top < 0:
-        return False
-    z[top + 1] = np.inf
-    c = 0
-    for q in range(n):
-        x = q * h
-        while z[c + 1] < x:
-            c += 1
-        p = v[c]
-        out_f[q] = (x - p * h) ** 2 + f[p]
-        out_site[q] = site[p]
-    return True
-
-
-@njit(cache=True, nogil=True)
-def _line_workspace(n):
-    """Work arrays of one :func:`_envelope` call on a line of ``n`` samples: values, sites, parabola positions,
-    boundaries (n + 1), output values, output sites."""
-    return (np.empty(n), np.empty(n, dtype=np.int32), np.empty(n, dtype=np.int64), np.empty(n + 1), np.empty(n),
-            np.empty(n, dtype=np.int32))
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def feature_rows(best, band2, sx, work, site, parts):
-    """Pass along i: ``work`` = squared distance (mm^2) to the nearest band voxel of the row, ``site`` its flat
-    index (-1 where the row has none); rows in parallel."""
-    nz, ny, nx = best.shape
-    queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(parts):  # k taken from a shared counter (module notes)
-        while True:
-            k = take(queue, 1)
-            if k >= nz:
-                break
-            f, s, v, z, out_f, out_s = _line_workspace(nx)
-            for j in range(ny):
-                base = (k * ny + j) * nx
-                for i in range(nx):
-                    f[i] = 0.0 if best[k, j, i] <= band2 else np.inf
-                    s[i] = base + i
-                if _envelope(f, s, nx, sx, v, z, out_f, out_s):
-                    for i in range(nx):
-                        work[k, j, i] = out_f[i]
-                        site[k, j, i] = out_s[i]
-                else:
-                    for i in range(nx):
-                        work[k, j, i] = np.inf
-                        site[k, j, i] = -1
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def feature_columns(work, site, sy, parts):
-    """Pass along j, in place on ``work`` and ``site``; slices in parallel."""
-    nz, ny, nx = work.shape
-    queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(parts):  # k taken from a shared counter (module notes)
-        while True:
-            k = take(queue, 1)
-            if k >= nz:
-                break
-            f, s, v, z, out_f, out_s = _line_workspace(ny)
-            for i in range(nx):
-                for j in range(ny):
-                    f[j] = work[k, j, i]
-                    s[j] = site[k, j, i]
-                if _envelope(f, s, ny, sy, v, z, out_f, out_s):
-                    for j in range(ny):
-                        work[k, j, i] = out_f[j]
-                        site[k, j, i] = out_s[j]
-
-
-@njit(cache=True, nogil=True, parallel=True)
-def feature_slices(work, site, sz, best, nearest, frames, spacing, band2, parts):
-    """Pass along k, then every voxel outside the band measures its distance to the triangle of its nearest band
-    voxel (kept if nearer than what it holds); columns (fixed j) in parallel, a whole (k, i) plane at a time."""
-    nz, ny, nx = work.shape
-    flat_nearest = nearest.reshape(-1)
-    queue = np.zeros(1, dtype=np.int64)
-    for _part in prange(parts):  # j taken from a shared counter (module notes)
-        while True:
-            j = take(queue, 1)
-            if j >= ny:
-                break
-            f_plane = np.empty((nz, nx))
-            s_plane = np.empty((nz, nx), dtype=np.int32)
-            target = np.empty((nz, nx), dtype=np.int32)
-            f, s, v, z, out_f, out_s = _line_workspace(nz)
-            for k in range(nz):
-                for i in range(nx):
-                    f_plane[k, i] = work[k, j, i]
-                    s_plane[k, i] = site[k, j, i]
-            for i in range(nx):
-                for k in range(nz):
-                    f[k] = f_plane[k, i]
-                    s[k] = s_plane[k, i]
-                if _envelope(f, s, nz, sz, v, z, out_f, out_s):
-                    for k in range(nz):
-                        target[k, i] = out_s[k]
-                else:
-                    for k in range(nz):
-                        target[k, i] = -1
-            y = j * spacing[1]
-            for k in range(nz):
-                zz = k * spacing[2]
-                for i in range(nx):
-                    if best[k, j, i] <= band2 or target[k, i] < 0:
-                        continue
-                    candidate = flat_nearest[target[k, i]]  # a band voxel's: never written here
-                    _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, zz, band2)
-
-
-@njit(cache=True, nogil=True)
 def _offer(best, nearest, k, j, i, candidate, frames, x, y, z, band2):
     if candidate < 0 or candidate == nearest[k, j, i] or best[k, j, i] <= band2:
         return False
@@ -234,6 +100,29 @@ def _offer(best, nearest, k, j, i, candidate, frames, x, y, z, band2):
         nearest[k, j, i] = candidate
         return True
     return False
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def offer_sites(best, nearest, site, frames, spacing, band2, parts):
+    """Every voxel outside the band measures its distance to the triangle of its nearest band voxel ``site`` (the
+    feature transform's flat index) and keeps it if nearer; slices in parallel."""
+    nz, ny, nx = best.shape
+    flat_nearest = nearest.reshape(-1)
+    queue = np.zeros(1, dtype=np.int64)
+    for _part in prange(parts):  # k taken from a shared counter (module notes)
+        while True:
+            k = take(queue, 1)
+            if k >= nz:
+                break
+            z = k * spacing[2]
+            for j in range(ny):
+                y = j * spacing[1]
+                for i in range(nx):
+                    target = site[k, j, i]
+                    if best[k, j, i] <= band2 or target < 0:
+                        continue
+                    candidate = flat_nearest[target]  # a band voxel's: never written here
+                    _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -441,12 +330,18 @@ def from_coarse(best, nearest, coarse, frames, frame_vertices, rotation, triangl
 
 @njit(cache=True, nogil=True)
 def settle(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces, vertex_start,
-           vertex_faces, spacing, band2, start, queued):
+           vertex_faces, spacing, band2, start, queued, k_lo, k_hi, owed):
     """The rest of the local check as one worklist, in order: every voxel in the list (first: ``start``, flat
-    indices of the voxels the first round changed; ``queued`` marks them) offers its triangle to its face
+    indices of the voxels the first round changed; ``queued`` marks them) offers its triangle to its 26
     neighbours outside the band; a neighbour that takes it descends from it and joins the list. Ends when the list
-    is empty (every accepted offer strictly lowers a stored value). Returns the number of voxels changed."""
+    is empty (every accepted offer strictly lowers a stored value). Returns the number of voxels changed.
+
+    Only the voxels of slices ``k_lo <= k < k_hi`` (a slab) are offered anything, so two slabs can settle at once
+    without touching each other's voxels; a voxel of the slab's first or last slice that offers while a slab lies
+    beyond is marked in ``owed``: it still owes those offers."""
     nz, ny, nx = best.shape
+    owes_below = k_lo > 0
+    owes_above = k_hi < nz
     capacity = max(1024, 2 * start.shape[0])
     queue = np.empty(capacity, dtype=np.int64)
     queue[:start.shape[0]] = start
@@ -461,12 +356,14 @@ def settle(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge
         j = (v // nx) % ny
         k = v // (nx * ny)
         queued[k, j, i] = False
+        if (owes_below and k == k_lo) or (owes_above and k == k_hi - 1):
+            owed[k, j, i] = True
         candidate = nearest[k, j, i]
         for q in range(27):
             ii = i + q % 3 - 1
             jj = j + (q // 3) % 3 - 1
             kk = k + q // 9 - 1
-            if q == 13 or ii < 0 or ii >= nx or jj < 0 or jj >= ny or kk < 0 or kk >= nz:
+            if q == 13 or ii < 0 or ii >= nx or jj < 0 or jj >= ny or kk < k_lo or kk >= k_hi:
                 continue
             x, y, z = ii * spacing[0], jj * spacing[1], kk * spacing[2]
             if not _offer(best, nearest, kk, jj, ii, candidate, frames, x, y, z, band2):
@@ -489,8 +386,48 @@ def settle(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge
     return changes
 
 
+
+@njit(cache=True, nogil=True, parallel=True)
+def settle_slabs(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start, edge_faces,
+                 vertex_start, vertex_faces, spacing, band2, start, split, cut, queued, owed, changes):
+    """:func:`settle` on the slabs below and from slice ``cut``, one thread each: ``start[:split]`` and
+    ``start[split:]`` (sorted flat indices) are their lists; ``changes[0 or 1]`` their counts. The voxels next to
+    the cut that still owe offers across it are marked in ``owed``."""
+    nz = best.shape[0]
+    for part in prange(2):
+        if part == 0:
+            changes[0] = settle(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start,
+                                edge_faces, vertex_start, vertex_faces, spacing, band2, start[:split], queued, 0, cut,
+                                owed)
+        else:
+            changes[1] = settle(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start,
+                                edge_faces, vertex_start, vertex_faces, spacing, band2, start[split:], queued, cut, nz,
+                                owed)
+
+
 #: Grids at least this large along every axis start from a half-resolution propagation.
 COARSE_FROM = 96
+
+
+def _settle_in_two(best, nearest, frames, topology, spacing, band2, now) -> int:
+    """The worklist of the local check from the voxels marked in ``now`` (cleared on the way): two slabs, split
+    where half the voxels to start from lie on each side, settle at once (one thread each); then the voxels next
+    to the cut that owe offers across it start one last worklist over the whole grid. Returns the changes."""
+    nz, ny, nx = best.shape
+    start = np.flatnonzero(now.reshape(-1))
+    owed = np.zeros(best.shape, dtype=np.bool_)
+    changes = 0
+    if len(start) >= 2 and nz >= 4:
+        cut = int(min(max(start[len(start) // 2] // (nx * ny), 1), nz - 1))
+        split = int(np.searchsorted(start, cut * nx * ny))
+        counts = np.zeros(2, dtype=np.int64)
+        settle_slabs(best, nearest, frames, *topology, spacing, band2, start, split, cut, now, owed, counts)
+        changes += int(counts.sum())
+        start = np.flatnonzero(owed.reshape(-1))
+    else:
+        owed |= now
+    changes += settle(best, nearest, frames, *topology, spacing, band2, start, owed, 0, nz, owed)
+    return changes
 
 
 def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: float, *,
@@ -554,7 +491,8 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
         site = np.empty(best.shape, dtype=np.int32)
         feature_rows(best, band2, spacing[0], work, site, parts)
         feature_columns(work, site, spacing[1], parts)
-        feature_slices(work, site, spacing[2], best, nearest, frames, spacing, band2, parts)
+        feature_slices(work, site, spacing[2], parts)
+        offer_sites(best, nearest, site, frames, spacing, band2, parts)
         del work, site
         todo[:] = True
         rows_todo[:] = True
@@ -576,8 +514,7 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
     del todo, rows_todo, coarse
     report(progress, 0.7)
     tick = time.perf_counter()
-    changed_per_pass.append(settle(best, nearest, frames, *topology, spacing, band2,
-                                   np.flatnonzero(now.reshape(-1)), now))
+    changed_per_pass.append(_settle_in_two(best, nearest, frames, topology, spacing, band2, now))
     timing["worklist"] = time.perf_counter() - tick
     report(progress, 1.0)
     return {"seed_voxels": n_seeds, "levels": levels, "changes_per_pass": changed_per_pass,
