@@ -69,37 +69,49 @@ def _envelope(f, site, n, h, v, z, out_f, out_site):
 
 @njit(cache=True, nogil=True)
 def _line_workspace(n):
-    """Work arrays of one :func:`_envelope` call on a line of ``n`` samples: values, sites, parabola positions,
+    """Work arrays of one :func:`_line_pass` on a line of ``n`` samples: values, sites, parabola positions,
     boundaries (n + 1), output values, output sites."""
     return (np.empty(n), np.empty(n, dtype=np.int32), np.empty(n, dtype=np.int64), np.empty(n + 1), np.empty(n),
             np.empty(n, dtype=np.int32))
 
 
+@njit(cache=True, nogil=True)
+def _line_pass(f_in, site_in, h, workspace, f_out, site_out):
+    """One line of a pass: the transform of ``f_in`` / ``site_in`` (read whole first, so they may be ``f_out`` /
+    ``site_out`` themselves) into ``f_out`` / ``site_out``; ``inf`` and -1 where the line has no site."""
+    f, s, v, z, out_f, out_s = workspace
+    n = f_in.shape[0]
+    for q in range(n):
+        f[q] = f_in[q]
+        s[q] = site_in[q]
+    if _envelope(f, s, n, h, v, z, out_f, out_s):
+        for q in range(n):
+            f_out[q] = out_f[q]
+            site_out[q] = out_s[q]
+    else:
+        for q in range(n):
+            f_out[q] = np.inf
+            site_out[q] = -1
+
+
 @njit(cache=True, nogil=True, parallel=True)
 def feature_rows(best, band2, sx, work, site, parts):
     """Pass along i, the sites being the voxels with ``best <= band2``: ``work`` = squared distance (mm^2) to the
-    nearest site of the row, ``site`` its flat index (-1 where the row has none); rows in parallel."""
+    nearest site of the row, ``site`` its flat index (-1 where the row has none); slices in parallel."""
     nz, ny, nx = best.shape
     queue = np.zeros(1, dtype=np.int64)
     for _part in prange(parts):  # k taken from a shared counter
+        workspace = _line_workspace(nx)
         while True:
             k = take(queue, 1)
             if k >= nz:
                 break
-            f, s, v, z, out_f, out_s = _line_workspace(nx)
             for j in range(ny):
                 base = (k * ny + j) * nx
                 for i in range(nx):
-                    f[i] = 0.0 if best[k, j, i] <= band2 else np.inf
-                    s[i] = base + i
-                if _envelope(f, s, nx, sx, v, z, out_f, out_s):
-                    for i in range(nx):
-                        work[k, j, i] = out_f[i]
-                        site[k, j, i] = out_s[i]
-                else:
-                    for i in range(nx):
-                        work[k, j, i] = np.inf
-                        site[k, j, i] = -1
+                    work[k, j, i] = 0.0 if best[k, j, i] <= band2 else np.inf
+                    site[k, j, i] = base + i
+                _line_pass(work[k, j], site[k, j], sx, workspace, work[k, j], site[k, j])
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -108,46 +120,35 @@ def feature_columns(work, site, sy, parts):
     nz, ny, nx = work.shape
     queue = np.zeros(1, dtype=np.int64)
     for _part in prange(parts):  # k taken from a shared counter
+        workspace = _line_workspace(ny)
         while True:
             k = take(queue, 1)
             if k >= nz:
                 break
-            f, s, v, z, out_f, out_s = _line_workspace(ny)
             for i in range(nx):
-                for j in range(ny):
-                    f[j] = work[k, j, i]
-                    s[j] = site[k, j, i]
-                if _envelope(f, s, ny, sy, v, z, out_f, out_s):
-                    for j in range(ny):
-                        work[k, j, i] = out_f[j]
-                        site[k, j, i] = out_s[j]
+                _line_pass(work[k, :, i], site[k, :, i], sy, workspace, work[k, :, i], site[k, :, i])
 
 
 @njit(cache=True, nogil=True, parallel=True)
 def feature_slices(work, site, sz, parts):
     """Pass along k: ``site`` becomes the flat index of each voxel's nearest site (-1: none); columns (fixed j) in
-    parallel, a whole (k, i) plane at a time (read before it is written)."""
+    parallel, a whole (k, i) plane at a time, transformed in a copy (lines along k contiguous)."""
     nz, ny, nx = work.shape
     queue = np.zeros(1, dtype=np.int64)
     for _part in prange(parts):  # j taken from a shared counter
+        workspace = _line_workspace(nz)
+        f_plane = np.empty((nx, nz))
+        s_plane = np.empty((nx, nz), dtype=np.int32)
         while True:
             j = take(queue, 1)
             if j >= ny:
                 break
-            f_plane = np.empty((nz, nx))
-            s_plane = np.empty((nz, nx), dtype=np.int32)
-            f, s, v, z, out_f, out_s = _line_workspace(nz)
             for k in range(nz):
                 for i in range(nx):
-                    f_plane[k, i] = work[k, j, i]
-                    s_plane[k, i] = site[k, j, i]
+                    f_plane[i, k] = work[k, j, i]
+                    s_plane[i, k] = site[k, j, i]
             for i in range(nx):
-                for k in range(nz):
-                    f[k] = f_plane[k, i]
-                    s[k] = s_plane[k, i]
-                if _envelope(f, s, nz, sz, v, z, out_f, out_s):
-                    for k in range(nz):
-                        site[k, j, i] = out_s[k]
-                else:
-                    for k in range(nz):
-                        site[k, j, i] = -1
+                _line_pass(f_plane[i], s_plane[i], sz, workspace, f_plane[i], s_plane[i])
+            for k in range(nz):
+                for i in range(nx):
+                    site[k, j, i] = s_plane[i, k]
