@@ -51,6 +51,26 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def signal_refcount_problem(emits: int = 64) -> str | None:
+    """A one-line message if the Qt binding loses Python references when a signal is sent, else None. PySide6 6.12.0
+    drops a reference to ``True`` at every ``emit()``; on Python 3.11, where ``True`` is an ordinary object, the
+    window then crashes after some thousands of progress reports. Sending a few signals shows it at once."""
+    from qtpy import API_NAME, PYQT_VERSION, PYSIDE_VERSION
+    from qtpy.QtCore import QObject, Signal
+
+    class Probe(QObject):
+        ping = Signal()
+
+    probe = Probe()
+    before = sys.getrefcount(True)
+    for _ in range(emits):
+        probe.ping.emit()
+    if before - sys.getrefcount(True) < emits // 2:
+        return None
+    return (f"{API_NAME} {PYSIDE_VERSION or PYQT_VERSION} loses a reference to Python's True at every Qt signal and "
+            f"would crash the window; install a sound version: pip install 'PySide6-Essentials>=6.6,<6.12'")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(list(sys.argv[1:] if argv is None else argv))
     modes = [m.strip() for m in args.modes.split(",")] if args.modes else []
@@ -99,6 +119,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     configure_vtk()
     qt_app = application()
+    problem = signal_refcount_problem()
+    if problem:
+        print(f"voxelscope: error: {problem}", file=sys.stderr)
+        return 1
     window = MainWindow()
     window.ask_for_series = not (args.exit or args.screenshot)
     if tools:  # before the volume opens, so every view starts cut
