@@ -119,37 +119,35 @@ class TaskRunner(QObject):
         self._keys = itertools.count(1)
         self._tasks: dict[int, Task] = {}
         self._handed_back: dict[int, tuple] = {}
-        self.running: list[Task] = []
 
     def start(self, task: Task) -> Task:
         work = _Work(next(self._keys), task, self._relay, self._handed_back)
         self._tasks[work.key] = task
-        self.running.append(task)
         self.started.emit(task)
         self.pool.start(work)
         return task
 
+    @property
+    def running(self) -> list[Task]:
+        """The tasks started and not yet ended, oldest first."""
+        return list(self._tasks.values())
+
     def _progress(self, key: int, fraction: float) -> None:
-        task = self._tasks.get(key)
-        if task is not None:
-            task.progress.emit(fraction)
+        self._tasks[key].progress.emit(fraction)  # queued from the worker, so always before its end
 
     def _ended(self, key: int) -> None:
-        task = self._tasks.pop(key, None)
+        task = self._tasks[key]
         outcome, result, error, trace, _call = self._handed_back.pop(key)
-        if task is None:
-            return
         task.traceback = trace
         signal, arguments = {"finished": (task.finished, (result,)), "failed": (task.failed, (error,)),
                              "cancelled": (task.cancelled, ())}[outcome]
         signal.emit(*arguments)
         task.done.emit()
-        if task in self.running:
-            self.running.remove(task)
+        del self._tasks[key]  # after the task's own signals: their slots still see it running
         self.ended.emit(task)
 
     def cancel_all(self) -> None:
-        for task in list(self.running):
+        for task in self.running:
             task.cancel()
 
     def wait(self, milliseconds: int = 30000) -> bool:
