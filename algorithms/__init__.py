@@ -20,6 +20,12 @@ Every module names its method and cites its source by the short names of ``docs/
 
 import importlib
 
+from .common import kernel_cache
+
+# Compiled kernels live in a per-user folder shared by checkouts of the same sources (see common/kernel_cache.py);
+# registered before any kernel module is imported.
+kernel_cache.install()
+
 # Public names and the module that defines each. They are imported on first use (PEP 562), like scikit-image's
 # lazy loading, so ``import algorithms.common.progress`` does not pull numba and every renderer into a short
 # command.

@@ -21,6 +21,7 @@ from app.operations import operations
 from app.pipeline import view_inputs
 from app.workbench import LAYOUTS, MAX_VIEWS, WorkbenchModel
 
+from . import gui_thread_gc
 from .camera_link import CameraLink
 from .render_view import RenderView
 from .tasks import Task, TaskRunner
@@ -45,6 +46,7 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
 
     def __init__(self, settings: QSettings | None = None, parent=None) -> None:
         super().__init__(parent)
+        gui_thread_gc.install()  # cycles (views, props, Qt wrappers) are only ever freed on this thread
         self.setWindowTitle("Voxelscope")
         self.settings = settings or QSettings("Voxelscope", "Voxelscope")
         self.model = WorkbenchModel()

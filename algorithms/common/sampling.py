@@ -86,7 +86,7 @@ _GOLDEN = 0.6180339887498949
 _SILVER = 0.41421356237309503
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def jitter_offset(col, row, pass_index):
     """The jitter ``j`` in [0, 1) of pixel ``(col, row)`` in accumulation pass ``pass_index`` (0 for a still frame).
 
@@ -100,7 +100,7 @@ def jitter_offset(col, row, pass_index):
     return value - math.floor(value)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def second_jitter_offset(col, row, pass_index):
     """A second jitter in [0, 1) of pixel ``(col, row)``, independent of :func:`jitter_offset` (for a second
     sampling decision of the same ray, such as where the light march starts): the same noise on transposed,

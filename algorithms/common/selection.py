@@ -40,6 +40,17 @@ Numba: the tool set is passed to kernels as the tuple :meth:`ToolSet.packed` (ki
 with the leap scales in their last column, grid offsets, grid shapes, grid values followed by the grid leap depths,
 settings); an empty tool set costs one comparison per sample. (The leap data rides in the existing arrays rather
 than in more tuple members: every array handed to a kernel call is reference-counted.)
+
+Compile time (the conventions of every kernel module): the small helpers that hot loops call are
+``@njit(forceinline=True)``, not numba's ``inline="always"``. numba then compiles a helper once per argument types
+and LLVM inlines it into each caller, the same machine code, whereas ``inline="always"`` copies the helper's IR into
+every call site before type inference, nested helpers included: :func:`removal_normal` (six :func:`removal` calls)
+took 10-14 s to compile that way, the cut shear-warp kernel 170 s; with ``forceinline`` well under a second and
+about 15 s. numba hands a caller's ``forceinline`` on to the callees it compiles for it, so a plain helper that a
+``forceinline`` one calls says ``forceinline=False``. A helper is compiled again for every new argument type, and a
+constant argument has a type of its own (``Literal[int](0)``), as does a ``prange`` index (uint64 in the parallel
+loop body, int64 where the kernel is typed): callers pass int64 values (``np.int64(0)``, ``np.int64(k)``) and
+``np.bool_`` flags instead.
 """
 
 from __future__ import annotations
@@ -232,11 +243,10 @@ def _grid_value(values, offset, nx, ny, nz, x, y, z):
     return c0 + fz * (c1 - c0)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _shape_distance(kind, p0, p1, p2, x, y, z, values, offset, nx, ny, nz):
-    """Signed distance (mm, negative inside) of one tool's shape (parameters ``p0..p2``; a grid tool's values from
-    ``offset``, size ``nx, ny, nz``) at ``(x, y, z)`` in the tool's own frame. Takes scalars, not rows of the packed
-    arrays: a row would be a reference-counted view, which costs more than the arithmetic."""
+@njit(cache=True, nogil=True, forceinline=True)
+def _shape_distance(kind, p0, p1, p2, x, y, z):
+    """Signed distance (mm, negative inside) of one analytic tool shape (not a grid tool; parameters ``p0..p2``)
+    at ``(x, y, z)`` in the tool's own frame. Scalars only (module notes, compile time)."""
     if kind == SPHERE:
         return math.sqrt(x * x + y * y + z * z) - p0
     if kind == BOX:
@@ -248,9 +258,7 @@ def _shape_distance(kind, p0, p1, p2, x, y, z, values, offset, nx, ny, nz):
         qh = abs(z) - p1
         outside = math.sqrt(max(qr, 0.0) ** 2 + max(qh, 0.0) ** 2)
         return outside + min(max(qr, qh), 0.0)
-    if kind == HALFSPACE:
-        return -z
-    return _grid_value(values, offset, nx, ny, nz, x, y, z)
+    return -z  # HALFSPACE
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -263,21 +271,18 @@ def to_tool(matrices, t, x, y, z):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _tool_distance(kinds, matrices, params, offsets, shapes, values, t, x, y, z):
-    """:func:`_shape_distance` of tool ``t`` at ``(x, y, z)`` given in the renderer's frame."""
-    lx, ly, lz = to_tool(matrices, t, x, y, z)
-    return _shape_distance(kinds[t], params[t, 0], params[t, 1], params[t, 2], lx, ly, lz, values, offsets[t],
-                           shapes[t, 0], shapes[t, 1], shapes[t, 2])
-
-
-@njit(cache=True, nogil=True, inline="always")
 def removal(tools, x, y, z):
     """The removal field ``g`` (mm) at ``(x, y, z)`` (renderer frame, mm): negative where a sample is removed."""
     kinds, modes, matrices, params, offsets, shapes, values = (tools[0], tools[1], tools[2], tools[3], tools[4],
                                                                tools[5], tools[6])
     g = FAR
     for t in range(kinds.shape[0]):
-        f = _tool_distance(kinds, matrices, params, offsets, shapes, values, t, x, y, z)
+        # Each tool's signed distance f (shapes: analytic; grid tools: trilinear, FAR outside the grid).
+        lx, ly, lz = to_tool(matrices, t, x, y, z)
+        if kinds[t] == GRID:
+            f = _grid_value(values, offsets[t], shapes[t, 0], shapes[t, 1], shapes[t, 2], lx, ly, lz)
+        else:
+            f = _shape_distance(kinds[t], params[t, 0], params[t, 1], params[t, 2], lx, ly, lz)
         r = f if modes[t] == REMOVE else -f
         if r < g:
             g = r
@@ -299,9 +304,21 @@ def visibility(tools, g):
 def removal_normal(tools, x, y, z, h):
     """``grad g / |grad g|`` at ``(x, y, z)`` by central differences ``h`` mm wide (the cut surface's normal,
     pointing out of the removed region); zeros where the gradient vanishes."""
-    gx = removal(tools, x + h, y, z) - removal(tools, x - h, y, z)
-    gy = removal(tools, x, y + h, z) - removal(tools, x, y - h, z)
-    gz = removal(tools, x, y, z + h) - removal(tools, x, y, z - h)
+    # One call of removal in a loop, not six: numba inlines each call as a copy of removal and of the helpers it
+    # inlines, and six copies took 10 to 14 s to compile. (x - h is x + (-h) exactly.)
+    gx = gy = gz = high = 0.0
+    for q in range(6):  # +h, then -h, along x, y and z
+        axis = q // 2
+        step = h if q % 2 == 0 else -h
+        g = removal(tools, x + step if axis == 0 else x, y + step if axis == 1 else y, z + step if axis == 2 else z)
+        if q % 2 == 0:
+            high = g
+        elif axis == 0:
+            gx = high - g
+        elif axis == 1:
+            gy = high - g
+        else:
+            gz = high - g
     norm = math.sqrt(gx * gx + gy * gy + gz * gz)
     if norm > 0.0:
         return gx / norm, gy / norm, gz / norm
@@ -351,13 +368,13 @@ def leap_at(tools, x, y, z):
         if s <= 0.0:
             continue
         depth = 0.0
+        lx, ly, lz = to_tool(matrices, t, x, y, z)
         if kinds[t] == GRID:
             # Outside a keep tool's grid everything is removed: as far as the grid's box.
-            lx, ly, lz = to_tool(matrices, t, x, y, z)
             depth = _grid_table_entry(values, base + offsets[t], shapes[t, 0], shapes[t, 1], shapes[t, 2], lx, ly, lz,
                                       True, modes[t] == KEEP)
         else:
-            f = _tool_distance(kinds, matrices, params, offsets, shapes, values, t, x, y, z)
+            f = _shape_distance(kinds[t], params[t, 0], params[t, 1], params[t, 2], lx, ly, lz)
             r = f if modes[t] == REMOVE else -f
             depth = -r - margin
         if depth * s > best:
@@ -386,13 +403,13 @@ def clear_at(tools, x, y, z, margin):
         if s <= 0.0:
             return 0.0
         clearance = 0.0
+        lx, ly, lz = to_tool(matrices, t, x, y, z)
         if kinds[t] == GRID:
             # Outside a remove tool's grid nothing is removed: clear as far as the grid's box.
-            lx, ly, lz = to_tool(matrices, t, x, y, z)
             clearance = _grid_table_entry(values, base + offsets[t], shapes[t, 0], shapes[t, 1], shapes[t, 2], lx, ly,
                                           lz, tables, modes[t] == REMOVE)
         else:
-            f = _tool_distance(kinds, matrices, params, offsets, shapes, values, t, x, y, z)
+            f = _shape_distance(kinds[t], params[t, 0], params[t, 1], params[t, 2], lx, ly, lz)
             clearance = (f if modes[t] == REMOVE else -f) - margin
         best = min(best, clearance * s)
         if best <= 0.0:

@@ -18,7 +18,7 @@ from numba import njit
 from .selection import BINARY, BOX, CYLINDER, GRID, HALFSPACE, REMOVE, SPHERE, to_tool
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _slab(o, d, low, high, t0, t1):
     """The part ``[t0, t1]`` of the line ``o + t d`` (one coordinate) with ``low <= o + t d <= high``."""
     if d == 0.0:
@@ -32,7 +32,7 @@ def _slab(o, d, low, high, t0, t1):
     return max(t0, a), min(t1, b)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _disc(ax, ay, az, bx, by, bz, radius, t0, t1):
     """The part ``[t0, t1]`` of the line ``a + t b`` with ``|a + t b| <= radius`` (``bz = az = 0``: a cylinder)."""
     qa = bx * bx + by * by + bz * bz
@@ -51,7 +51,7 @@ def _disc(ax, ay, az, bx, by, bz, radius, t0, t1):
 _BOUNDS_SLACK = 1.0e-6
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _shape_span(kind, p0, p1, p2, n0, n1, n2, ax, ay, az, bx, by, bz, grow):
     """The part of the line ``a + t b`` (tool frame) inside the tool's shape (parameters ``p0..p2``; grid size
     ``n0..n2``) grown by ``grow`` (tool units; a negative ``grow`` shrinks it), a grid tool's grid box whatever

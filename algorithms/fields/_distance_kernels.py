@@ -228,20 +228,20 @@ def build_polytope(pid, n_triangles, tri_kind, frames, frame_vertices, points, w
     how the hull points are connected (:data:`PRISM`, :data:`CUBE`, :data:`WEDGE` or :data:`PYRAMID`).
     """
     sphere[3] = -1.0
-    np_ = 0
-    nv = 0
+    # Counters and axes passed to the helpers are int64 values, never literal constants: numba would compile a
+    # helper once for each literal argument.
+    np_ = np.int64(0)
+    nv = np.int64(0)
     if pid < n_triangles:
         t = pid
         a = frames[t, 12]
         b = frames[t, 13]
         h = frames[t, 14]
-        if tri_kind[t] == 1:  # the source's box, grown by d
-            np_ = _frame_plane(planes, np_, frames, t, 0, 1.0, a + reach)
-            np_ = _frame_plane(planes, np_, frames, t, 0, -1.0, b + reach)
-            np_ = _frame_plane(planes, np_, frames, t, 1, 1.0, h + reach)
-            np_ = _frame_plane(planes, np_, frames, t, 1, -1.0, reach)
-            np_ = _frame_plane(planes, np_, frames, t, 2, 1.0, reach)
-            np_ = _frame_plane(planes, np_, frames, t, 2, -1.0, reach)
+        if tri_kind[t] == 1:  # the source's box, grown by d: r <= a + d, -r <= b + d, s <= h + d, -s <= d, |t| <= d
+            for axis in range(3):
+                np_ = _frame_plane(planes, np_, frames, t, axis, 1.0, (a if axis == 0 else (h if axis == 1 else 0.0))
+                                   + reach)
+                np_ = _frame_plane(planes, np_, frames, t, axis, -1.0, (b if axis == 0 else 0.0) + reach)
             for ir in range(2):
                 rr = a + reach if ir == 0 else -b - reach
                 for js in range(2):
@@ -254,7 +254,7 @@ def build_polytope(pid, n_triangles, tri_kind, frames, frame_vertices, points, w
                                      frames[t, 2] + rr * frames[t, 5] + ss * frames[t, 8] + tt * frames[t, 11])
             return t, np_, nv, CUBE
         # the prism over the triangle: s >= 0, both slanted sides, |t| <= d
-        np_ = _frame_plane(planes, np_, frames, t, 1, -1.0, slack)
+        np_ = _frame_plane(planes, np_, frames, t, np.int64(1), -1.0, slack)
         right = np.sqrt(a * a + h * h)
         left = np.sqrt(b * b + h * h)
         # right side through v1 (r = a, s = 0) with outward normal (h, a) / right in (r, s)
@@ -273,8 +273,8 @@ def build_polytope(pid, n_triangles, tri_kind, frames, frame_vertices, points, w
         nz = cr * frames[t, 5] + cs * frames[t, 8]
         np_ = _plane(planes, np_, nx, ny, nz, slack - cr * b + nx * frames[t, 0] + ny * frames[t, 1]
                      + nz * frames[t, 2])
-        np_ = _frame_plane(planes, np_, frames, t, 2, 1.0, reach)
-        np_ = _frame_plane(planes, np_, frames, t, 2, -1.0, reach)
+        for sign in (1.0, -1.0):
+            np_ = _frame_plane(planes, np_, frames, t, np.int64(2), sign, reach)
         for corner in range(3):
             v = frame_vertices[t, corner]
             for sign in (-1.0, 1.0):

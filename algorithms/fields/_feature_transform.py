@@ -137,7 +137,7 @@ def feature_slices(work, site, sz, parts):
     queue = np.zeros(1, dtype=np.int64)
     for _part in prange(parts):  # j taken from a shared counter
         workspace = _line_workspace(nz)
-        f_plane = np.empty((nx, nz))
+        f_plane = np.empty((nx, nz), dtype=np.float32)  # as ``work``: _line_pass is compiled for float32 lines
         s_plane = np.empty((nx, nz), dtype=np.int32)
         while True:
             j = take(queue, 1)

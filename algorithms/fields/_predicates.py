@@ -31,7 +31,7 @@ _SPLITTER = 2.0 ** 27 + 1.0
 _CCW_ERRBOUND_A = (3.0 + 16.0 * _EPSILON) * _EPSILON
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _two_sum(a, b):
     x = a + b
     b_virtual = x - a
@@ -39,7 +39,7 @@ def _two_sum(a, b):
     return x, (a - a_virtual) + (b - b_virtual)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _two_diff(a, b):
     x = a - b
     b_virtual = a - x
@@ -47,7 +47,7 @@ def _two_diff(a, b):
     return x, (a - a_virtual) + (b_virtual - b)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _split(a):
     c = _SPLITTER * a
     big = c - a
@@ -55,7 +55,7 @@ def _split(a):
     return high, a - high
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _two_product(a, b):
     x = a * b
     a_high, a_low = _split(a)
@@ -83,7 +83,7 @@ def _grow(expansion, length, value):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, forceinline=False)  # rarely taken: stated, not inherited (common.selection, compile time)
 def _orient2d_exact_sign(ax, ay, bx, by, cx, cy):
     """Exact sign of ``(a - c) x (b - c)``: every difference and product split into exact double pairs and summed
     as an expansion, whose largest component carries the sign."""
@@ -92,7 +92,7 @@ def _orient2d_exact_sign(ax, ay, bx, by, cx, cy):
     bcx, bcx_tail = _two_diff(bx, cx)
     bcy, bcy_tail = _two_diff(by, cy)
     expansion = np.empty(40, dtype=np.float64)
-    length = 0
+    length = np.int64(0)  # not a literal 0: numba would compile _grow for it as well as for int64
     left = (acx, acx_tail)
     right = (bcy, bcy_tail)
     for u in left:
@@ -112,7 +112,7 @@ def _orient2d_exact_sign(ax, ay, bx, by, cx, cy):
     return 1 if expansion[length - 1] > 0.0 else -1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def orient2d_sign(ax, ay, bx, by, cx, cy):
     """Exact sign (-1, 0, +1) of ``(a - c) x (b - c)``, twice the signed area of the triangle ``a, b, c``.
 
@@ -137,7 +137,7 @@ def orient2d_sign(ax, ay, bx, by, cx, cy):
     return _orient2d_exact_sign(ax, ay, bx, by, cx, cy), det
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def edge_side(uy, uz, vy, vz, y, z):
     """Side (+1 or -1) of the point ``(y + e, z + e^2)`` relative to the directed edge ``u -> v`` in the (y, z)
     plane, and the rounded determinant ``(v - u) x (p - u)``.

@@ -74,8 +74,9 @@ def _section(vertices, nv, shape, z, zlow, zhigh, pad, extent):
             extent[2] = min(extent[2], vertices[p, 1])
             extent[3] = max(extent[3], vertices[p, 1])
     if shape == PYRAMID:  # apex 0 to every base point, and every chord of the (planar) base
+        apex = np.int64(0)  # not a literal 0: numba would compile _cross for it as well as for int64
         for q in range(1, nv):
-            _cross(vertices, 0, q, z, extent)
+            _cross(vertices, apex, q, z, extent)
             for r in range(q + 1, nv):
                 _cross(vertices, q, r, z, extent)
     else:
@@ -160,9 +161,10 @@ def scan_slabs(order, slab, start, members, n_triangles, tri_kind, frames, frame
         evaluations = 0
         lines = 0
         for m in range(start[s], start[s + 1]):
-            owner, n_planes, nv, shape = build_polytope(members[m], n_triangles, tri_kind, frames, frame_vertices, points,
-                                                 wedges, wedge_vertices, cone_info, cone_start, cone_rays,
-                                                 cone_edges, reach, slack, planes, vertices, sphere)
+            pid = np.int64(members[m])  # int64, as polytope_slices passes it: one compiled build_polytope
+            owner, n_planes, nv, shape = build_polytope(pid, n_triangles, tri_kind, frames, frame_vertices, points,
+                                                        wedges, wedge_vertices, cone_info, cone_start, cone_rays,
+                                                        cone_edges, reach, slack, planes, vertices, sphere)
             zlow = np.inf
             zhigh = -np.inf
             for q in range(nv):

@@ -156,7 +156,7 @@ def _sort_row(xs, signs, start, stop):
         signs[n + 1] = s
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _first_voxel(x, nx):
     """The first voxel ``i`` (clipped to ``0..nx``) at or after the crossing ``x``: the voxels that count it."""
     if x <= 0.0:
@@ -172,7 +172,7 @@ def _fill_row(row, xs, signs, start, stop, winding):
 
     Parity (``winding`` false): 1 where the number of crossings at or before the voxel is odd. Winding: the
     running sum of crossing directions (the winding number of a closed chain), clamped to the int8 range, wherever
-    it is not 0 (``row`` is then an int8 view).
+    it is not 0. ``row`` is int8 under both rules.
     """
     nx = row.shape[0]
     level = 0
@@ -190,8 +190,9 @@ def _fill_row(row, xs, signs, start, stop, winding):
 def fill_slices(points, triangles, rows, offsets, members, slices, out, winding, direction_sign):
     """Voxelise the slices ``slices`` (k indices) of ``out`` (``(nz, ny, nx)``, zero on entry).
 
-    Parity: ``out`` is uint8 and becomes 1 inside. ``winding``: ``out`` is int8 and receives the winding number of
-    the closed chain (the running sum of crossing directions) wherever it is not 0;
+    ``out`` is int8 (callers pass an int8 view of a uint8 mask under both rules, so this is compiled once). Parity:
+    ``out`` becomes 1 inside. ``winding``: ``out`` receives the winding number of the closed chain (the running sum
+    of crossing directions) wherever it is not 0;
     ``direction_sign`` is -1 when the index frame is left-handed (it reverses every triangle's facing there).
     Returns the number of crossings found per slice of ``slices``.
     """

@@ -24,7 +24,7 @@ from numba import njit, prange
 from .winding import tree_solid_angle
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _dot(ax, ay, az, bx, by, bz):
     return ax * bx + ay * by + az * bz
 

@@ -92,6 +92,8 @@ def _already_tried(tried, n_tried, candidate) -> bool:
 
 @njit(cache=True, nogil=True)
 def _offer(best, nearest, k, j, i, candidate, frames, x, y, z, band2):
+    """Offer triangle ``candidate`` to voxel ``(k, j, i)`` at ``(x, y, z)`` mm; True when it is nearer. Callers pass
+    ``candidate`` as int64 (read from int32 arrays): numba compiles this, and the distance, once per argument type."""
     if candidate < 0 or candidate == nearest[k, j, i] or best[k, j, i] <= band2:
         return False
     d2 = np.float32(point_triangle_distance2(frames, candidate, x, y, z))
@@ -121,7 +123,7 @@ def offer_sites(best, nearest, site, frames, spacing, band2, parts):
                     target = site[k, j, i]
                     if best[k, j, i] <= band2 or target < 0:
                         continue
-                    candidate = flat_nearest[target]  # a band voxel's: never written here
+                    candidate = np.int64(flat_nearest[target])  # a band voxel's: never written here
                     _offer(best, nearest, k, j, i, candidate, frames, i * spacing[0], y, z, band2)
 
 
@@ -251,7 +253,7 @@ def _descend(best, nearest, k, j, i, frames, frame_vertices, rotation, triangle_
             faces = vertex_faces
         chosen = current
         for q in range(first, last):
-            g = faces[q]
+            g = np.int64(faces[q])
             if g == current:
                 continue
             dg = np.float32(point_triangle_distance2(frames, g, x, y, z))
@@ -314,8 +316,9 @@ def from_coarse(best, nearest, coarse, frames, frame_vertices, rotation, triangl
                     x = i * spacing[0]
                     n_tried = 0
                     for q in range(8):
-                        candidate = coarse[min((k + (q & 1)) // 2, cz - 1), min((j + ((q >> 1) & 1)) // 2, cy - 1),
-                                           min((i + (q >> 2)) // 2, cx - 1)]
+                        candidate = np.int64(coarse[min((k + (q & 1)) // 2, cz - 1),
+                                                    min((j + ((q >> 1) & 1)) // 2, cy - 1),
+                                                    min((i + (q >> 2)) // 2, cx - 1)])
                         if _already_tried(tried, n_tried, candidate):
                             continue
                         tried[n_tried] = candidate
@@ -358,7 +361,7 @@ def settle(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge
         queued[k, j, i] = False
         if (owes_below and k == k_lo) or (owes_above and k == k_hi - 1):
             owed[k, j, i] = True
-        candidate = nearest[k, j, i]
+        candidate = np.int64(nearest[k, j, i])
         for q in range(27):
             ii = i + q % 3 - 1
             jj = j + (q // 3) % 3 - 1
@@ -394,11 +397,12 @@ def settle_slabs(best, nearest, frames, frame_vertices, rotation, triangle_edges
     ``start[split:]`` (sorted flat indices) are their lists; ``changes[0 or 1]`` their counts. The voxels next to
     the cut that still owe offers across it are marked in ``owed``."""
     nz = best.shape[0]
+    bottom = np.int64(0)  # not a literal 0: numba would compile settle for it as well as for int64
     for part in prange(2):
         if part == 0:
             changes[0] = settle(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start,
-                                edge_faces, vertex_start, vertex_faces, spacing, band2, start[:split], queued, 0, cut,
-                                owed)
+                                edge_faces, vertex_start, vertex_faces, spacing, band2, start[:split], queued, bottom,
+                                cut, owed)
         else:
             changes[1] = settle(best, nearest, frames, frame_vertices, rotation, triangle_edges, edge_start,
                                 edge_faces, vertex_start, vertex_faces, spacing, band2, start[split:], queued, cut, nz,
@@ -426,7 +430,7 @@ def _settle_in_two(best, nearest, frames, topology, spacing, band2, now) -> int:
         start = np.flatnonzero(owed.reshape(-1))
     else:
         owed |= now
-    changes += settle(best, nearest, frames, *topology, spacing, band2, start, owed, 0, nz, owed)
+    changes += settle(best, nearest, frames, *topology, spacing, band2, start, owed, np.int64(0), nz, owed)
     return changes
 
 

@@ -214,8 +214,9 @@ def _voxelise(grid, inside, points, triangles, all_points, all_triangles, caps, 
     handedness = 1 if np.linalg.det(grid.direction_matrix) > 0 else -1
     winding = inside == "winding"
     near = winding and caps.count > 0
-    # winding: the kernel writes the closed chain's integer winding number as int8, then it is thresholded
-    target = mask.view(np.int8) if winding else mask
+    # The kernel fills an int8 view under both rules (parity writes 1s, the mask's own bytes), so it is compiled
+    # once; winding: it writes the closed chain's integer winding number, which is then thresholded.
+    target = mask.view(np.int8)
     crossings = _fill(index_points, all_triangles, target, winding=winding, handedness=handedness,
                       progress=scaled(progress, 0.0, 0.6 if near else 1.0))
     tree_voxels = 0

@@ -15,4 +15,5 @@ BENCHMARKS = {
     "shear-warp": "app.bench.shear_warp",
     "tetmesh": "app.bench.tetmesh",
     "voxelise": "app.bench.voxelise",
+    "compile": "app.bench.compile",
 }

@@ -24,6 +24,22 @@ from ..pipeline import (  # noqa: F401 - re-exported for the benchmarks
 from ..pipeline.props import volume_prop
 
 
+#: The CT of the quick runs: the FORBILD head in the sample's field of view on 256 x 256 x 88 voxels (1.09 x 1.09 x
+#: 3 mm), about the size of the earlier sample; full runs measure the sample itself (512 x 512 x 176).
+QUICK_CT_SHAPE = (88, 256, 256)
+
+
+def ct_volume(quick: bool):
+    """The CT every benchmark measures: the bundled sample, read from its file, or its quick-run grid."""
+    if quick:
+        from ..datasets import ct_head_phantom
+
+        return ct_head_phantom(QUICK_CT_SHAPE)
+    from ..samples import load_sample
+
+    return load_sample("ct")
+
+
 def vtk_mapper_scene(volume, function, mapper: str, size, *, sample_distance: float | None = None,
                      shading: bool | None = False, camera: Camera | None = None) -> OffscreenScene:
     """An off-screen scene holding ``volume`` drawn by VTK's ``"gpu"`` or ``"cpu"`` ray caster (the same prop every

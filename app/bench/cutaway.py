@@ -1,8 +1,8 @@
 """Cut-away benchmark (issue 15): the selection volume of source 002 (Kähler, *Vergleich von Volumenmodellen*, MSc
 thesis, TU Kaiserslautern, about 2009, sections 2.5 and 3.3.1) in every volume mode, in the same run.
 
-- **Frame time with and without a tool**: the CT phantom (``sample``, 256 x 256 x 108) at 512 x 512 (``--quick``:
-  256 x 256), ``ct-bone``, each volume mode (``raymarch``, ``slicing``, ``shear-warp`` when it honours tools,
+- **Frame time with and without a tool**: the CT sample (the FORBILD head, 512 x 512 x 176) at 512 x 512 (``--quick``:
+  the head on 256 x 256 x 88 voxels at 256 x 256), ``ct-bone``, each volume mode (``raymarch``, ``slicing``, ``shear-warp`` when it honours tools,
   ``vtk-gpu``, ``vtk-cpu``) in ``ROUNDS`` rounds of ``FRAMES`` frames of a turning camera (medians), the frames without
   a tool, with it and on the pre-masked volume timed in turns so that outside load cannot favour one; with a sphere,
   a box rotated by 45 degrees and a mesh-shaped tool (the Stanford bunny, voxelised at 64 voxels, when
@@ -34,7 +34,7 @@ import numpy as np
 
 from algorithms.common.progress import ProgressCallback, report
 
-from .common import machine_info, pyplot, save_figure, write_csv, write_json
+from .common import ct_volume, machine_info, pyplot, save_figure, write_csv, write_json
 
 FRAMES = 4  # per round
 ROUNDS = 3
@@ -44,7 +44,7 @@ MOVES = 20
 SOURCE_SLOWDOWN = 11.0 / 3.0  # source 002, 2.5.2: 11 fps with Blinn-Phong, 3 fps with the selection volume
 VOLUME_MODES = ("raymarch", "slicing", "shear-warp", "vtk-gpu", "vtk-cpu")
 SURFACE_MODES = ("marching-cubes", "flying-edges", "voxel-faces")  # agreement only (their cut is a re-extraction)
-SPHERE = "sphere:30,-80,0,70"  # the same sphere as tests/app/test_cutaways.py
+SPHERE = "sphere:0,-40,120,100"  # the vertex of the head, as in tests/app/test_cutaways.py
 BOX = "box:10,-50,30,80,60,50,0,0,45"
 MESHES = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "meshes"
 
@@ -215,13 +215,11 @@ def _plot(rows, path: Path) -> Path:
 
 
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:
-    from ..io import load_volume
-    from ..samples import resolve_path
     from ..scene import VolumeItem
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    volume = load_volume(resolve_path("sample"))
+    volume = ct_volume(quick)
     item = VolumeItem("sample", volume=volume)
     size = (256, 256) if quick else (512, 512)
     frames = QUICK_FRAMES if quick else FRAMES

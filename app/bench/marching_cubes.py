@@ -2,7 +2,8 @@
 
 Cases
 -----
-- The CT head phantom at its default size (256 x 256 x 108, int16 HU) at 300 HU (bone) and -300 HU (skin), with
+- The CT sample (the FORBILD head, 512 x 512 x 176, int16 HU; quick: on 256 x 256 x 88 voxels) at 300 HU (bone)
+  and -300 HU (skin), with
   and without normals.
 - Colin 27 (181 x 217 x 181 T1 MR, uint8) at Voxelscope's default isovalue for it.
 - Synthetic noisy tori (float32) of 64^3 to 512^3 samples (quick: up to 128^3), surface only.
@@ -45,7 +46,8 @@ import numpy as np
 from algorithms.common.progress import ProgressCallback, report
 from algorithms.common.vtk_bridge import image_from_array, run_algorithm
 
-from .common import machine_info, paired_ratio, pyplot, save_figure, time_call, time_interleaved, write_csv, write_json
+from .common import (ct_volume, machine_info, paired_ratio, pyplot, save_figure, time_call, time_interleaved, write_csv,
+                     write_json)
 
 COLIN27 = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "colin27_t1_ch2.nii.gz"
 SYNTHETIC_SIZES = (64, 128, 192, 256, 384, 512)
@@ -73,9 +75,7 @@ def _cases(quick: bool):
     """(dataset name, loader, with normals too); a loader returns the array, spacing, origin and isovalues."""
 
     def ct():
-        from app.datasets import ct_head_phantom
-
-        volume = ct_head_phantom()
+        volume = ct_volume(quick)
         return volume.array, volume.spacing, volume.origin, (300.0, -300.0)
 
     def colin():

@@ -3,7 +3,7 @@
 Source 001 compared its renderers by flying around a CT skull and recording every frame's time, then reported the
 mean frame time and frame rate, the frame-time-weighted mean ``sum(t^2) / sum(t)`` (each frame weighted by how
 long it stays on screen, so stutter counts) and, where a method needs one, the one-off set-up time. The same
-experiment here, on the full CT head phantom (256 x 256 x 108, 0.9375 x 0.9375 x 2 mm, int16 HU) with the
+experiment here, on the CT sample (the FORBILD head, 512 x 512 x 176, 0.547 x 0.547 x 1.5 mm, int16 HU) with the
 ``ct-bone`` preset at 512 x 512 pixels and half the smallest spacing as sample distance:
 
 - The camera orbits 360 degrees around the head in ``FRAMES`` steps while its elevation wobbles by
@@ -51,13 +51,12 @@ from algorithms.rendering.raymarch import LIGHTING_MODELS, RaymarchRenderer
 from algorithms.rendering.texture_slicing import SlicingRenderer
 from algorithms.common.transfer import TransferTable
 
-from ..datasets import ct_head_phantom
 from ..pipeline import FrameTimes, camera_in_frame, default_camera
 from ..pipeline.props import default_sample_distance
 from ..transfer import transfer_function_for
 from ..vtk_setup import configure_vtk
 from . import slicing
-from .common import machine_info, pyplot, save_figure, vtk_mapper_scene, write_csv, write_json
+from .common import ct_volume, machine_info, pyplot, save_figure, vtk_mapper_scene, write_csv, write_json
 
 PRESET = "ct-bone"
 SIZE, QUICK_SIZE = 512, 256
@@ -219,7 +218,7 @@ def _plot_medians(path: Path, summary: list[dict[str, Any]], ablation: list[dict
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:
     """Run the fly-around benchmark and write CSVs, plots, example PNGs and a JSON summary; returns the files.
 
-    ``quick`` renders ``QUICK_FRAMES`` frames at ``QUICK_SIZE`` pixels (still the full phantom): for checking that
+    ``quick`` renders ``QUICK_FRAMES`` frames at ``QUICK_SIZE`` pixels of the phantom on the quick grid: for checking that
     the benchmark runs, not for numbers.
     """
     configure_vtk()
@@ -227,7 +226,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     size, frames = (QUICK_SIZE, QUICK_FRAMES) if quick else (SIZE, FRAMES)
-    volume = ct_head_phantom()
+    volume = ct_volume(quick)
     function = transfer_function_for(volume, PRESET, shading=False)
     shaded_function = transfer_function_for(volume, PRESET, shading=True)
     material = shaded_function.shading
@@ -343,7 +342,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     written.append(write_json(out_dir / "render.json", {
         "benchmark": "render",
         "machine": machine_info(),
-        "volume": {"name": "ct_head_phantom", "shape": list(volume.array.shape), "spacing_mm": list(volume.spacing)},
+        "volume": {"name": "sample ct (FORBILD head)", "shape": list(volume.array.shape), "spacing_mm": list(volume.spacing)},
         "preset": PRESET,
         "image_size": [size, size],
         "frames": frames,

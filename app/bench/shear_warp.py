@@ -15,7 +15,8 @@ volumes; the same tests here, with :class:`algorithms.rendering.shear_warp.Shear
   0.99. Each volume is seen by ``FRAMES`` parallel cameras turning around it (elevation 20 degrees); the median
   frame time per volume is reported and then averaged over the volumes of a size, as the source did.
 
-- **CT phantom**: :func:`app.datasets.ct_head_phantom` at full size (256 x 256 x 108, 0.9375 x 0.9375 x 2 mm) with
+- **CT phantom**: the CT sample (the FORBILD head, 512 x 512 x 176, 0.547 x 0.547 x 1.5 mm; quick: on 256 x 256 x
+  88 voxels) with
   the ``ct-bone`` preset, unshaded, parallel projection, 512 x 512, over ``CT_FRAMES`` frames of a turning camera:
   shear-warp against ``vtkFixedPointVolumeRayCastMapper`` (``vtk-cpu``) and ``vtkGPUVolumeRayCastMapper``
   (``vtk-gpu``, Mesa's llvmpipe without a GPU) with VTK's default sample distance of our renderers (half the
@@ -63,7 +64,7 @@ from ..pipeline.props import default_sample_distance
 from ..transfer import transfer_function_for
 from ..volume import Volume
 from ..vtk_setup import configure_vtk
-from .common import machine_info, pyplot, save_figure, time_vtk_mapper, write_csv, write_json
+from .common import ct_volume, machine_info, pyplot, save_figure, time_vtk_mapper, write_csv, write_json
 
 SIZE = 512
 #: Test 1 sizes as (x, y, z) voxels, as the source lists them.
@@ -312,7 +313,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
                 _random_row({"transparent_percent": percent, "seed": seed}, volume, frames, next_progress()))
 
     # CT phantom against VTK.
-    phantom = ct_head_phantom()
+    phantom = ct_volume(quick)
     function = transfer_function_for(phantom, PRESET, shading=False)
     preset_shading = transfer_function_for(phantom, PRESET, shading=True).shading
     table = function.to_table(phantom.value_range)

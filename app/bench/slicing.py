@@ -3,8 +3,8 @@ and the axis-aligned stack switch.
 
 Source 001 (technique 3) renders a CT skull with view-aligned texture slices and finds them fast for their
 quality; source 002 (2.4.3) warns that compositing in an 8-bit framebuffer loses up to 40 % after a hundred slices,
-and that switching between axis-aligned stacks flickers. Measured here, on the CT head phantom (full size,
-256 x 256 x 108, 0.9375 x 0.9375 x 2 mm) at 512 x 512 pixels with the ``ct-bone`` preset and no shading:
+and that switching between axis-aligned stacks flickers. Measured here, on the CT sample (the FORBILD head,
+512 x 512 x 176, 0.547 x 0.547 x 1.5 mm) at 512 x 512 pixels with the ``ct-bone`` preset and no shading:
 
 1. Frame time against the number of view-aligned slices (64, 128, 256, 512 and the default of one slice per smallest
    spacing) for the rasterising path (:class:`algorithms.rendering.texture_slicing.SliceStackProp` in VTK's OpenGL
@@ -41,7 +41,8 @@ from ..pipeline import OffscreenScene, camera_in_frame, default_camera
 from ..pipeline.offscreen import render_vtk_volume
 from ..pipeline.props import default_sample_distance
 from ..transfer import transfer_function_for
-from .common import Timing, machine_info, vtk_mapper_scene, pyplot, save_figure, time_call, write_csv, write_json
+from .common import (Timing, ct_volume, machine_info, pyplot, save_figure, time_call, vtk_mapper_scene, write_csv,
+                     write_json)
 
 PRESET = "ct-bone"
 #: A preset of low opacity per slice, for the 8-bit compositing error (image quality only).
@@ -239,10 +240,10 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     out_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     if quick:
-        volume = ct_head_phantom(shape=(40, 96, 96), spacing=(2.5, 2.5, 5.4))
+        volume = ct_head_phantom(shape=(40, 96, 96))
         size, repeats, counts, azimuths = 256, 1, QUICK_SLICE_COUNTS, QUICK_SWITCH_AZIMUTHS
     else:
-        volume = ct_head_phantom()
+        volume = ct_volume(quick)
         size, repeats, counts, azimuths = 512, 3, SLICE_COUNTS, SWITCH_AZIMUTHS
     function = transfer_function_for(volume, PRESET, shading=False)
     table = function.to_table(volume.value_range)
@@ -319,7 +320,7 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     summary = {
         "machine": machine_info(),
         "configuration": {
-            "volume": "ct_head_phantom", "shape_zyx": list(volume.array.shape), "spacing_mm": list(volume.spacing),
+            "volume": "FORBILD head phantom", "shape_zyx": list(volume.array.shape), "spacing_mm": list(volume.spacing),
             "image_size": [size, size], "preset": PRESET, "shading": False, "azimuth_degrees": AZIMUTH,
             "elevation_degrees": ELEVATION, "repeats": repeats, "quick": quick,
             "vtk_sample_distance_mm": default_sample_distance(volume),

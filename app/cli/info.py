@@ -17,13 +17,16 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from ..io.zarr import is_zarr_path
-    from ..samples import resolve_path
+    from ..samples import SAMPLES, resolve_path, sample_name
 
     if is_zarr_path(resolve_path(args.path)):  # chunked volumes: metadata only, no sample read (issue 19)
         return _chunked_info(args)
     item = load_item(args)
     facts = item.describe()
     facts.pop("name", None)
+    sample = SAMPLES.get(sample_name(args.path) or "")
+    if sample is not None:
+        facts["sample"] = sample.description
     if item.kind == "volume":
         volume = item.volume
         facts.pop("kind", None)
@@ -41,7 +44,8 @@ def run(args) -> int:
 def _volume_lines(item, facts) -> list[str]:
     volume = item.volume
     units = volume.units_label
-    lines = [
+    lines = [f"Sample       {facts['sample']}"] if "sample" in facts else []
+    lines += [
         f"Source       {volume.metadata.get('source_path', '')} ({facts['source_format']})",
         f"Dimensions   {' x '.join(map(str, facts['dimensions']))} voxels (x, y, z)",
         f"Spacing      {' x '.join(f'{s:g}' for s in facts['spacing'])} mm",

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.io import save_volume
+from app.io import load_volume, save_volume
 from app.pipeline import read_png
 
 from .dicom_helpers import small_ct, write_scanner_folder
@@ -102,21 +102,55 @@ def test_render_volume_modes_on_the_sample(tmp_path, mode):
 
 
 def test_mesh_close_edges_caps_the_skull_at_the_last_slice(tmp_path):
-    # The phantom's skull runs into the bottom slice: the plain surface is open there, the capped one closed.
+    # 160 mm of slices through the phantom's head: the skull runs into the first and the last slice, so the plain
+    # surface is open there and the capped one closed.
+    from app.datasets import ct_head_phantom
+
+    head = save_volume(ct_head_phantom((40, 96, 96), (2.4, 2.4, 4.0)), tmp_path / "head.nii.gz")
     reports = {}
     for extra in ((), ("--close-edges",)):
         out = tmp_path / f"skull{len(extra)}.stl"
-        reports[extra] = json.loads(voxelscope("mesh", "sample", "--method", "marching-cubes", "--iso", 300, "-o", out,
+        reports[extra] = json.loads(voxelscope("mesh", head, "--method", "marching-cubes", "--iso", 300, "-o", out,
                                                "--json", *extra).stdout)
     plain, capped = reports[()], reports[("--close-edges",)]
     assert not plain["validity"]["watertight"]
     assert capped["validity"]["watertight"] and capped["validity"]["manifold"]
     assert capped["validity"]["outward_normals"]
     assert capped["triangles"] > plain["triangles"]
-    # The cap adds area only where the skull meets the volume's edge: a few per cent.
-    assert 1.0 < capped["validity"]["area_mm2"] / plain["validity"]["area_mm2"] < 1.05
+    # The cap adds area only where the skull meets the volume's edge (its first and last slice, and the front of
+    # the grid, which cuts the face): away from the edges the two surfaces are the same, and what is added covers at
+    # least the skull's sections in the volume's faces.
+    volume = load_volume(head)
+    spacing = np.asarray(volume.spacing)
+    low = np.asarray(volume.origin) + 2 * spacing
+    high = np.asarray(volume.origin) + (np.asarray(volume.dimensions) - 3) * spacing
+    inner = {}
+    for name in ("skull0.stl", "skull1.stl"):
+        centres, areas = _triangle_centres_and_areas(tmp_path / name)
+        inner[name] = areas[np.all((centres > low) & (centres < high), axis=1)].sum()
+    assert inner["skull1.stl"] == pytest.approx(inner["skull0.stl"], rel=1e-6)
+    bone = volume.array >= 300
+    sx, sy, sz = spacing
+    sections = (np.count_nonzero(bone[[0, -1]]) * sx * sy + np.count_nonzero(bone[:, [0, -1]]) * sx * sz
+                + np.count_nonzero(bone[:, :, [0, -1]]) * sy * sz)
+    assert sections > 0
+    assert capped["validity"]["area_mm2"] - plain["validity"]["area_mm2"] > 0.9 * sections
     sidecar = json.loads((tmp_path / "skull1.stl.json").read_text())
     assert sidecar["parameters"]["close_edges"] is True
+
+
+def _triangle_centres_and_areas(path):
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOGeometry import vtkSTLReader
+
+    reader = vtkSTLReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    mesh = reader.GetOutput()
+    points = vtk_to_numpy(mesh.GetPoints().GetData()).astype(np.float64)
+    corners = points[vtk_to_numpy(mesh.GetPolys().GetConnectivityArray()).reshape(-1, 3)]
+    areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    return corners.mean(axis=1), areas
 
 
 def test_render_slicing_through_opengl_matches_the_float_path(tmp_path):
@@ -165,9 +199,10 @@ def test_mesh_flying_edges_json_and_files(tmp_path):
     # The file holds the extracted triangles minus those of zero area (the isovalue equals sample values here).
     assert reader.GetOutput().GetNumberOfCells() == report["written"]["triangles"] == sidecar["counts"]["triangles"]
     assert 0.99 * report["triangles"] < report["written"]["triangles"] <= report["triangles"]
-    # LPS mm: the skull sits inside the volume's world bounds.
+    # LPS mm: the 300 HU surface is the skull's outer table, the ellipsoid of semi-axes 96, 120 and 125 mm centred on
+    # the origin (the phantom's definition), within a voxel (0.55 x 0.55 x 1.5 mm).
     bounds = reader.GetOutput().GetBounds()
-    assert -120 < bounds[0] < bounds[1] < 120 and -107 <= bounds[4] < bounds[5] <= 107
+    np.testing.assert_allclose(bounds, (-96.0, 96.0, -120.0, 120.0, -125.0, 125.0), atol=1.5)
 
     refused = voxelscope("mesh", "sample", "--method", "flying-edges", "-o", out, check=False)
     assert refused.returncode == 1 and "already exists" in refused.stderr

@@ -14,7 +14,8 @@ from app.pipeline.headless import RenderSettings, render_item
 from app.scene import VolumeItem
 from app.selection import masked_volume, parse_cut
 
-SPHERE = "sphere:30,-80,0,70"  # LPS mm: the front right of the phantom's head, seen from the anterior view
+SPHERE = "sphere:0,-40,120,100"  # LPS mm: the top of the phantom's head (the vertex), seen from the anterior view
+MESH_SPHERE = "sphere:30,-80,0,70"  # LPS mm: the front left of the skull (the frontal bone and the left orbit)
 MODES = ("raymarch", "shear-warp", "slicing", "vtk-gpu", "vtk-cpu", "marching-cubes", "flying-edges", "voxel-faces")
 
 
@@ -112,7 +113,7 @@ def test_mesh_with_a_distance_cut_is_watertight_with_a_smooth_cap(tmp_path):
     reports, caps = {}, {}
     for evaluation in ("distance", "binary"):
         out = tmp_path / f"cut-{evaluation}.stl"
-        reports[evaluation] = json.loads(voxelscope("mesh", "sample", "--cut", SPHERE, "--cut-eval", evaluation,
+        reports[evaluation] = json.loads(voxelscope("mesh", "sample", "--cut", MESH_SPHERE, "--cut-eval", evaluation,
                                                     "--close-edges", "-o", out, "--json").stdout)
         caps[evaluation] = _cap_angles(out, centre, radius)
     report = reports["distance"]

@@ -55,24 +55,31 @@ def small_ct():
                                       (-1000, "at or below the smallest value")])
 def test_mesh_with_an_isovalue_outside_the_range_writes_nothing(tmp_path, iso, why):
     line = one_line_error(voxelscope("mesh", "sample", "--iso", iso, "-o", tmp_path / "skull.stl"))
-    assert f"ct_head_phantom.nii.gz: no surface at {iso} HU, which is {why}" in line
-    assert "the values run from -1000 to 1526 HU" in line and "choose an isovalue" in line
+    assert f"ct_forbild_head.nii.gz: no surface at {iso} HU, which is {why}" in line
+    assert "the values run from -1000 to 800 HU" in line and "choose an isovalue" in line
     assert list(tmp_path.iterdir()) == []
 
 
 def test_mesh_at_the_maximum_has_no_area_and_writes_nothing(tmp_path):
-    # Only single samples reach 1526 HU: flying edges makes triangles there, all of them collapsed to points.
-    line = one_line_error(voxelscope("mesh", "sample", "--iso", 1526, "-o", tmp_path / "top.ply"))
+    # In the egg phantom only single samples reach its maximum, 1526 HU: flying edges makes triangles there, all of
+    # them collapsed to points.
+    from app.datasets import egg_head_phantom
+    from app.io import save_volume
+
+    (tmp_path / "in").mkdir()
+    egg = save_volume(egg_head_phantom(), tmp_path / "in" / "egg.nii.gz")
+    (tmp_path / "out").mkdir()
+    line = one_line_error(voxelscope("mesh", egg, "--iso", 1526, "-o", tmp_path / "out" / "top.ply"))
     assert "the surface at 1526 HU has no area" in line
-    assert list(tmp_path.iterdir()) == []
+    assert list((tmp_path / "out").iterdir()) == []
 
 
-@pytest.mark.parametrize("mode, iso", [("flying-edges", 99999), ("marching-cubes", 1526), ("flying-edges", 1526),
+@pytest.mark.parametrize("mode, iso", [("flying-edges", 99999), ("marching-cubes", 1526), ("flying-edges", 801),
                                        ("marching-cubes-vs-flying-edges", 2000)])
 def test_render_of_an_empty_surface_writes_nothing(tmp_path, mode, iso):
     line = one_line_error(voxelscope("render", "sample", "--mode", mode, "--iso", iso, "-o", tmp_path / "x.png",
                                      "--size", 64, 64))
-    assert "ct_head_phantom.nii.gz: no surface" in line and "1526 HU" in line
+    assert "ct_forbild_head.nii.gz: no surface" in line and "800 HU" in line
     assert list(tmp_path.iterdir()) == []
 
 
@@ -129,8 +136,11 @@ def test_decimating_a_closed_surface_keeps_it_closed_or_says_how():
     assert notes["decimation_achieved"] == pytest.approx(0.6, abs=0.05)
 
 
-def test_volume_only_for_watertight_outward_meshes(tmp_path):
-    process = voxelscope("mesh", "sample", "--method", "marching-cubes", "-o", tmp_path / "open.obj", "--json")
+def test_volume_only_for_watertight_outward_meshes(small_ct, tmp_path):
+    from app.io import save_volume
+
+    cut = save_volume(small_ct, tmp_path / "cut.nii.gz")  # 160 mm of slices: the skull leaves at both ends
+    process = voxelscope("mesh", cut, "--method", "marching-cubes", "-o", tmp_path / "open.obj", "--json")
     assert process.returncode == 0, process.stderr
     validity = json.loads(process.stdout)["validity"]
     assert not validity["watertight"] and validity["volume_mm3"] is None  # the skull is open at the last slice

@@ -193,11 +193,11 @@ def test_same_lights_in_every_surface_mode_and_handed_back():
 def test_voxel_steps_show_from_a_standard_view():
     """From the front nearly every visible voxel face of a head faces the camera, so no directional light can
     separate the steps; ambient occlusion darkens each step's edge. Share of the silhouette's pixels on an edge
-    (brightness jump of more than 6 grey levels to a neighbour): with the surface lighting against without."""
-    from app.io import load_volume
-    from app.samples import sample_path
+    (brightness jump of more than 6 grey levels to a neighbour): with the surface lighting against without. The
+    head is the CT phantom on a grid of 1.1 x 1.1 x 3 mm voxels, so that the steps are larger than a pixel."""
+    from app.datasets import ct_head_phantom
 
-    item = VolumeItem("ct", volume=load_volume(sample_path("ct")))
+    item = VolumeItem("ct", volume=ct_head_phantom((88, 256, 256)))
 
     def edge_share(image):
         grey = image.astype(np.float64).mean(axis=2)

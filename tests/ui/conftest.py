@@ -16,12 +16,12 @@ def settings(tmp_path):
 
 @pytest.fixture(scope="session")
 def small_ct_file(tmp_path_factory):
-    """A reduced CT phantom (fast views), written as NIfTI like a user's file."""
+    """The CT phantom on a coarse grid (fast views), written as NIfTI like a user's file."""
     from app.datasets import ct_head_phantom
     from app.io import save_volume
 
     path = tmp_path_factory.mktemp("volumes") / "small_ct.nii.gz"
-    return save_volume(ct_head_phantom(shape=(54, 128, 128), spacing=(1.875, 1.875, 4.0)), path)
+    return save_volume(ct_head_phantom(shape=(54, 128, 128)), path)  # the sample's field of view, 2.2 x 2.2 x 4.9 mm
 
 
 @pytest.fixture

@@ -59,8 +59,9 @@ def assert_four_views_of_one_object(image: np.ndarray) -> None:
     assert len(regions) == 4
     masks = []
     for quadrant in regions:
-        # Bright pixels are the rendered head (the views' background is black, the plane outlines are not the head).
-        mask = (quadrant.max(axis=2) > 60) & ~plane_lines(quadrant)
+        # Lit pixels are the rendered head (the views' background is black, the plane outlines are not the head); the
+        # CPU ray caster draws a CT's skull dimmer than the others, so "lit" starts well below mid-grey.
+        mask = (quadrant.max(axis=2) > 25) & ~plane_lines(quadrant)
         assert mask.mean() > 0.01, "a view shows nothing"
         masks.append(mask)
     # Same object from the same camera: the silhouettes sit in the same place, with the same extent, in every view.

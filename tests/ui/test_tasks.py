@@ -134,3 +134,62 @@ def test_a_task_runs_once(qtbot):
         runner.start(task)
     with pytest.raises(RuntimeError, match="started already"):
         runner.start(task)
+
+
+class _Cycle:
+    """Garbage in a reference cycle (as views, pipelines and props of a closed window are) that notes the thread
+    the collector frees it on."""
+
+    def __init__(self, freed_on: list) -> None:
+        self.me = self
+        self.freed_on = freed_on
+
+    def __del__(self) -> None:
+        self.freed_on.append(threading.current_thread().name)
+
+
+def _allocate_in_a_worker(count: int = 200_000) -> list:
+    """What a worker building a result does to the collector: many new container objects (returned, so they stay
+    counted until the caller lets go of them)."""
+    result = []
+
+    def work():
+        result.append([[index] for index in range(count)])
+
+    thread = threading.Thread(target=work, name="worker")
+    thread.start()
+    thread.join()
+    return result
+
+
+def test_without_the_gui_thread_collector_a_worker_frees_the_window_s_cycles():
+    """The hazard itself, with CPython's own collector: a worker that allocates runs the collection that frees
+    garbage it never touched (here a cycle standing for a closed view's pipeline and its VTK props)."""
+    import gc
+
+    automatic = gc.isenabled()  # off once a window has installed the GUI-thread collector in this process
+    gc.enable()
+    try:
+        freed_on: list[str] = []
+        _Cycle(freed_on)
+        _allocate_in_a_worker()
+    finally:
+        if not automatic:
+            gc.disable()
+    assert freed_on == ["worker"]
+
+
+def test_the_window_frees_cycles_on_the_gui_thread_only(qtbot, window):
+    """With the window's collector, the same worker frees nothing; the GUI thread's timer collects the cycle."""
+    import gc
+
+    from ui.gui_thread_gc import GuiThreadCollector
+
+    assert not gc.isenabled() and window.findChild(GuiThreadCollector) is None  # the application owns it
+    freed_on: list[str] = []
+    _Cycle(freed_on)
+    result = _allocate_in_a_worker()
+    assert freed_on == []
+    qtbot.waitUntil(lambda: bool(freed_on), timeout=10_000)
+    assert freed_on == [threading.main_thread().name]
+    del result

@@ -20,7 +20,7 @@ RING = np.array([(-1, -1), (0, -1), (0, 0), (-1, 0)], dtype=np.int64)
 OUTWARD_FACES = np.array([(0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)], dtype=np.int64)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _sign_code(s):
     if s > 0:
         return 1
@@ -187,21 +187,22 @@ def count(sign_o, sign_i, row_o, row_i, counts, faces, n_faces, surface_faces, r
     shape_o = sign_o.shape
     shape_i = sign_i.shape
     for k in prange(nzo):
+        layer = np.int64(k)  # for the helpers (see algorithms.common.selection, compile time)
         slots = np.empty((4, 4), dtype=np.int64)
         on_surface = np.empty(10, dtype=np.bool_)
         for j in range(nyo):
             n_tets = 0
             n_bound = 0
-            if _row_has_positive(j, k, row_o, row_i):
+            if _row_has_positive(j, layer, row_o, row_i):
                 for i in range(nxo):
-                    if not _near_positive(i, j, k, sign_o, sign_i):
+                    if not _near_positive(i, j, layer, sign_o, sign_i):
                         continue
-                    if _all_positive(i, j, k, sign_o, sign_i):
+                    if _all_positive(i, j, layer, sign_o, sign_i):
                         n_tets += 12
                         continue
                     for axis in range(3):
                         for q in range(4):
-                            _vertices(i, j, k, axis, q, ring, slots)
+                            _vertices(i, j, layer, axis, q, ring, slots)
                             if not _in_range(slots, shape_o, shape_i):
                                 continue
                             pattern = _pattern(slots, sign_o, sign_i, on_surface)
@@ -222,6 +223,7 @@ def stuff(sign_o, sign_i, vid_o, vid_i, ref_o, ref_i, rec_cut, n_lattice, counts
     shape_o = sign_o.shape
     shape_i = sign_i.shape
     for k in prange(nzo):
+        layer = np.int64(k)  # for the helpers (see algorithms.common.selection, compile time)
         slots = np.empty((4, 4), dtype=np.int64)
         owner = np.empty(5, dtype=np.int64)
         ids = np.empty(10, dtype=np.int64)
@@ -232,12 +234,12 @@ def stuff(sign_o, sign_i, vid_o, vid_i, ref_o, ref_i, rec_cut, n_lattice, counts
             n_tets = first[k, j, 0]
             n_bound = first[k, j, 1]
             for i in range(nxo):
-                if not _near_positive(i, j, k, sign_o, sign_i):
+                if not _near_positive(i, j, layer, sign_o, sign_i):
                     continue
-                interior = _all_positive(i, j, k, sign_o, sign_i)
+                interior = _all_positive(i, j, layer, sign_o, sign_i)
                 for axis in range(3):
                     for q in range(4):
-                        _vertices(i, j, k, axis, q, ring, slots)
+                        _vertices(i, j, layer, axis, q, ring, slots)
                         if interior:
                             for s in range(4):
                                 tets[n_tets, s] = _get(slots[s, 0], slots[s, 1], slots[s, 2], slots[s, 3], vid_o,

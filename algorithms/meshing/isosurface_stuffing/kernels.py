@@ -56,7 +56,7 @@ def field_at(volume, x, y, z, geometry):
     return geometry[8] * ((c0 * (1.0 - fw) + c1 * fw) - geometry[6])
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _sign(value):
     if value > 0.0:
         return 1
@@ -302,7 +302,7 @@ def zero_vertices(sign_o, sign_i, zeros, grids, keep):
 # Owned half-edge d of a point -> the other end (direction 0-2 black +axis, 3-6 red), as an edge number of
 # ``neighbour``: black +x, +y, +z are edges 0, 2, 4; red direction 3 + a + 2b is edge 6 + a + 2b + 4 (the point of
 # the other grid above).
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def owned_edge(grid, d):
     if d < 3:
         return 2 * d
@@ -314,7 +314,8 @@ def compute_cuts(volume, geometry, lattice, sign_o, sign_i, rec_point, rec_t, st
     """Cut parameter of every owned half-edge with opposite end signs, by bisection on the field (``steps``
     halvings) or, with ``linear``, by linear interpolation of the end values."""
     for r in prange(rec_point.shape[0]):
-        grid, i, j, k = rec_point[r, 0], rec_point[r, 1], rec_point[r, 2], rec_point[r, 3]
+        grid, i, j, k = (np.int64(rec_point[r, 0]), np.int64(rec_point[r, 1]), np.int64(rec_point[r, 2]),
+                         np.int64(rec_point[r, 3]))  # int64, as zero_vertices passes them to neighbour
         s = _get(grid, i, j, k, sign_o, sign_i)
         px, py, pz = position(grid, i, j, k, lattice)
         for d in range(7):
@@ -360,7 +361,8 @@ def warp(sign_o, sign_i, ref_o, ref_i, rec_point, rec_t, rec_pos, lattice, alpha
     black_length = h
     red_length = h * np.sqrt(3.0) / 2.0
     for r in prange(rec_point.shape[0]):
-        grid, i, j, k = rec_point[r, 0], rec_point[r, 1], rec_point[r, 2], rec_point[r, 3]
+        grid, i, j, k = (np.int64(rec_point[r, 0]), np.int64(rec_point[r, 1]), np.int64(rec_point[r, 2]),
+                         np.int64(rec_point[r, 3]))  # int64, as zero_vertices passes them to neighbour
         if _get(grid, i, j, k, sign_o, sign_i) != phase:
             continue
         best = 1e300
@@ -400,7 +402,8 @@ def number_cuts(sign_o, sign_i, rec_point, rec_t, first, rec_cut, lattice, point
     """Ids (from ``first[r]``) and positions of the cut points that survive the warp (both ends still of opposite
     nonzero signs). With ``counting`` only ``counts[r]`` is filled."""
     for r in prange(rec_point.shape[0]):
-        grid, i, j, k = rec_point[r, 0], rec_point[r, 1], rec_point[r, 2], rec_point[r, 3]
+        grid, i, j, k = (np.int64(rec_point[r, 0]), np.int64(rec_point[r, 1]), np.int64(rec_point[r, 2]),
+                         np.int64(rec_point[r, 3]))  # int64, as zero_vertices passes them to neighbour
         s = _get(grid, i, j, k, sign_o, sign_i)
         n = 0 if counting else first[r]
         for d in range(7):

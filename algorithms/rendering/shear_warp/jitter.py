@@ -110,7 +110,7 @@ def composite_jittered(
     nk = slice_order.shape[0]
     for task in prange(n_tasks):
         composited = transparent = hidden = 0
-        for v in _task_rows(task, n_tasks, block, row_start, row_stop):
+        for v in _task_rows(np.int64(task), n_tasks, block, row_start, row_stop):  # (int64: see _task_rows)
             row_offsets = offsets[v]
             k_back = slice_order[0]
             back_low, back_high, _ = _slice_range(run_lengths, line_runs, line_voxels, total, nj, ni, k_back,

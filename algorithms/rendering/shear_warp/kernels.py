@@ -57,7 +57,7 @@ def classify(volume, value_min, scale, last_entry):
     return classes
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _derivative(low_value, high_value, low, high, spacing):
     """Difference quotient between samples ``low`` and ``high`` (value per mm); 0 on a one-voxel axis."""
     if high == low:
@@ -265,13 +265,17 @@ def _advance(cursor, slot, count, run_lengths):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _start(cursor, slot, line, position, line_runs, line_voxels, run_lengths):
-    """Place a cursor at voxel ``position`` of scanline ``line``."""
-    cursor[slot, 0] = line_runs[line]
-    cursor[slot, 1] = run_lengths[line_runs[line]]
-    cursor[slot, 2] = line_voxels[line]
-    cursor[slot, 3] = 0
-    _advance(cursor, slot, position, run_lengths)
+def _start(cursor, line_a, line_b, position, use_r, line_runs, line_voxels, run_lengths):
+    """Place the four cursors at voxel ``position`` (the left ones) and ``position + use_r`` (the right ones) of
+    scanlines ``line_a`` (A) and ``line_b`` (B). (One loop, not four calls, one per slot: numba inlines every call
+    of an ``inline="always"`` helper, this one's call of :func:`_advance` included, as a copy of its code.)"""
+    for slot in range(4):
+        line = line_a if slot < _B_LEFT else line_b
+        cursor[slot, 0] = line_runs[line]
+        cursor[slot, 1] = run_lengths[line_runs[line]]
+        cursor[slot, 2] = line_voxels[line]
+        cursor[slot, 3] = 0
+        _advance(cursor, slot, position + (use_r if slot == _A_RIGHT or slot == _B_RIGHT else 0), run_lengths)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -286,7 +290,10 @@ def _slice_row(v, k, nj, pixel_j, fraction_j):
 @njit(cache=True, nogil=True)
 def _task_rows(task, n_tasks, block, row_start, row_stop):
     """The rows of ``[row_start, row_stop)`` task ``task`` composites, ascending: blocks of ``block`` rows dealt
-    out to the ``n_tasks`` tasks in turn, so every thread gets rows from all parts of the image."""
+    out to the ``n_tasks`` tasks in turn, so every thread gets rows from all parts of the image.
+
+    Callers pass ``task`` as ``np.int64(task)``: numba types a ``prange`` index as int64 when it types the kernel
+    and as uint64 in the outlined parallel loop body, and would compile a callee for both."""
     rows = np.arange(row_start, row_stop)
     return rows[((rows - row_start) // block) % n_tasks == task]
 
@@ -389,10 +396,7 @@ def composite_rle(
                                     _advance(cursor, slot, run, run_lengths)
                             continue
                         if not started:
-                            _start(cursor, _A_LEFT, line_a, a, line_runs, line_voxels, run_lengths)
-                            _start(cursor, _A_RIGHT, line_a, a + use_r, line_runs, line_voxels, run_lengths)
-                            _start(cursor, _B_LEFT, line_b, a, line_runs, line_voxels, run_lengths)
-                            _start(cursor, _B_RIGHT, line_b, a + use_r, line_runs, line_voxels, run_lengths)
+                            _start(cursor, line_a, line_b, a, use_r, line_runs, line_voxels, run_lengths)
                             started = True
                         # The stretch over which every cursor stays in its current run.
                         stretch = min(count - a, cursor[_A_LEFT, 1], cursor[_A_RIGHT, 1])
@@ -439,7 +443,7 @@ def composite_dense(
     for task in prange(n_tasks):
         composited = 0
         hidden = 0
-        for v in _task_rows(task, n_tasks, block, row_start, row_stop):
+        for v in _task_rows(np.int64(task), n_tasks, block, row_start, row_stop):  # (int64: see _task_rows)
             row_offsets = offsets[v]
             for k in slice_order:
                 ja, use_b, use_r, count, u0, w_al, w_ar, w_bl, w_br = _slice_setup(
@@ -483,7 +487,7 @@ def composite_dense(
 # --------------------------------------------------------------------------------------------------------------
 # Warp
 # --------------------------------------------------------------------------------------------------------------
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _inside_columns(slope, intercept, low, high, width):
     """Columns ``x`` in ``[0, width)`` with ``low < slope * (x + 0.5) + intercept < high``, as ``[first, stop)``.
 

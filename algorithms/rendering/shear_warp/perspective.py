@@ -265,13 +265,15 @@ def composite_scanlines(
     empty = table.shape[0] - 1
     total = voxel_classes.shape[0]
     n_tasks = counts.shape[0]
+    # _decode_line's flags as typed values, not literal constants: numba compiles a callee once per literal argument.
+    decode, no_shading = np.int64(-1), np.bool_(False)
     for task in prange(n_tasks):
         classes_a = np.full(ni, empty, dtype=np.int64)
         classes_b = np.full(ni, empty, dtype=np.int64)
         normals_a = np.zeros(ni, dtype=np.int64)
         normals_b = np.zeros(ni, dtype=np.int64)
         composited = transparent = hidden = 0
-        for v in _task_rows(task, n_tasks, block, row_start, row_stop):
+        for v in _task_rows(np.int64(task), n_tasks, block, row_start, row_stop):  # (int64: see _task_rows)
             row_offsets = offsets[v]
             for m in range(slice_order.shape[0]):
                 k = slice_order[m]
@@ -297,12 +299,12 @@ def composite_scanlines(
                     else:
                         first_a, last_a = _decode_line(run_lengths, voxel_classes, voxel_normals, shading,
                                                        line_runs[line_a], line_voxels[line_a], ni, classes_a,
-                                                       normals_a, -1)
+                                                       normals_a, decode)
                         first, last = first_a, last_a
                         if use_b:
                             first_b, last_b = _decode_line(run_lengths, voxel_classes, voxel_normals, shading,
                                                            line_runs[line_a + 1], line_voxels[line_a + 1], ni,
-                                                           classes_b, normals_b, -1)
+                                                           classes_b, normals_b, decode)
                             first, last = min(first, first_b), max(last, last_b)
                         # A sample at i touches voxels floor(i) and floor(i) + 1: only first - 1 <= i < last + 1
                         # can reach a stored one.
@@ -326,10 +328,10 @@ def composite_scanlines(
                                         opaque_threshold)
                     u += 1
                 if line_a >= 0:  # reset the scanline buffers to transparent
-                    _decode_line(run_lengths, voxel_classes, voxel_normals, False, line_runs[line_a],
+                    _decode_line(run_lengths, voxel_classes, voxel_normals, no_shading, line_runs[line_a],
                                  line_voxels[line_a], ni, classes_a, normals_a, empty)
                     if use_b:
-                        _decode_line(run_lengths, voxel_classes, voxel_normals, False, line_runs[line_a + 1],
+                        _decode_line(run_lengths, voxel_classes, voxel_normals, no_shading, line_runs[line_a + 1],
                                      line_voxels[line_a + 1], ni, classes_b, normals_b, empty)
         counts[task, 0] = composited
         counts[task, 1] = transparent

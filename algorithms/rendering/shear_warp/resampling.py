@@ -50,7 +50,7 @@ def _value(volume, x, y, z, resampled):
     return np.float64(volume[int(z), int(y), int(x)])
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _class_of(value, value_min, scale, last_entry):
     position = (value - value_min) * scale
     if position <= 0.0:
@@ -82,10 +82,17 @@ def _difference(volume, x, y, z, axis, step, size, spacing, resampled):
 def _normal_index(volume, x, y, z, steps, spacing, resampled, encoding, half_grid, zero_index):
     """Quantised normal (``-grad / |grad|``, see :func:`.kernels.normal_indices`) at index point ``(x, y, z)``:
     central differences ``steps`` (one rendered voxel, in volume indices) to either side, one-sided at the box."""
-    nz, ny, nx = volume.shape
-    gx = _difference(volume, x, y, z, 0, steps[0], nx, spacing[0], resampled)
-    gy = _difference(volume, x, y, z, 1, steps[1], ny, spacing[1], resampled)
-    gz = _difference(volume, x, y, z, 2, steps[2], nz, spacing[2], resampled)
+    # One call in a loop over the axes, not one per axis: numba inlines each call of _difference (and its calls of
+    # _value) as a copy of its code.
+    gx = gy = gz = 0.0
+    for axis in range(3):
+        g = _difference(volume, x, y, z, axis, steps[axis], volume.shape[2 - axis], spacing[axis], resampled)
+        if axis == 0:
+            gx = g
+        elif axis == 1:
+            gy = g
+        else:
+            gz = g
     norm = np.sqrt(gx * gx + gy * gy + gz * gz)
     if norm == 0.0:
         return zero_index

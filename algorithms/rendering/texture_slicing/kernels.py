@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from ...common.pixel_rays import pixel_ray
@@ -130,6 +131,7 @@ def composite_slices(accumulator, frame, parallel, normal, plane_offsets, box_mi
     ``columns`` bound the pixels slice ``m`` can cover. With ``quantise`` every blend is rounded to 8 bits, as a
     framebuffer stores it.
     """
+    alpha_channel = np.int64(3)  # not a literal 3: numba would compile _bilinear for it as well as for int64
     for row in prange(accumulator.shape[0]):
         for m in range(plane_offsets.shape[0]):
             if row < rows[m, 0] or row >= rows[m, 1]:
@@ -163,7 +165,7 @@ def composite_slices(accumulator, frame, parallel, normal, plane_offsets, box_mi
                 q1 = min(q0 + 1, height - 1)
                 fs = s - p0
                 fr = r - q0
-                alpha = _bilinear(textures, 3, starts[m], width, p0, p1, q0, q1, fs, fr)
+                alpha = _bilinear(textures, alpha_channel, starts[m], width, p0, p1, q0, q1, fs, fr)
                 if alpha <= 0.0:
                     continue  # VTK's fragment shader discards fully transparent fragments too
                 for channel in range(4):

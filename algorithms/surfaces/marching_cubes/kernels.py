@@ -100,7 +100,7 @@ TRIANGLE_COUNT = _triangle_counts()
 # ``(j, k)``; ``vertex_first`` has the same layout and holds the id of the first of them.
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, forceinline=True)
 def _owned(j, k, ny, nz):
     """Which edge rows the row of cells ``(j, k)`` owns besides its own x, y and z rows at ``(j, k)``:
     the sample row ``j + 1`` (last row of cells), the slice ``k + 1`` (last layer), or both."""

@@ -165,8 +165,11 @@ def _sides(solid, k, geometry, points, v, lengths, kinds, s, write):
                 break
         if not differs:
             continue
-        top_first = -1
-        bottom_first = -1
+        # Typed values, not literal constants, for the arguments of _run_strip: numba would compile it once for
+        # each literal argument.
+        top_first = np.int64(-1)
+        bottom_first = np.int64(-1)
+        upper, lower = np.bool_(True), np.bool_(False)
         for i in range(nx + 1):
             below = _at(solid, k - 1, j, i)  # i == nx reads the empty padding and ends every run
             above = _at(solid, k, j, i)
@@ -175,12 +178,12 @@ def _sides(solid, k, geometry, points, v, lengths, kinds, s, write):
             if top and top_first < 0:
                 top_first = i
             elif not top and top_first >= 0:
-                v, s = _run_strip(points, v, lengths, kinds, s, geometry, top_first, i, j, k, True, write)
+                v, s = _run_strip(points, v, lengths, kinds, s, geometry, top_first, i, j, k, upper, write)
                 top_first = -1
             if bottom and bottom_first < 0:
                 bottom_first = i
             elif not bottom and bottom_first >= 0:
-                v, s = _run_strip(points, v, lengths, kinds, s, geometry, bottom_first, i, j, k, False, write)
+                v, s = _run_strip(points, v, lengths, kinds, s, geometry, bottom_first, i, j, k, lower, write)
                 bottom_first = -1
     return v, s
 

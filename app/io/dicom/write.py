@@ -19,11 +19,16 @@ def write_dicom_series(
     description: str = "Voxelscope export",
     file_names: Sequence[str] | None = None,
     series_number: int = 1,
+    uid_seed: str | None = None,
+    patient_name: str = "Phantom^Voxelscope",
+    patient_id: str = "VOXELSCOPE-0001",
 ) -> list[Path]:
     """Write ``volume`` as a single-frame CT/MR image series (one file per k slice), uncompressed.
 
     Values are stored as ``(value - intercept) / slope`` in unsigned 16 bits when ``rescale_intercept`` is given
-    (e.g. ``-1024`` for CT, like most scanners), else as signed 16 bits with intercept 0. Returns the file paths.
+    (e.g. ``-1024`` for CT, like most scanners), else as signed 16 bits with intercept 0. UIDs are random unless
+    ``uid_seed`` is given: then every UID is derived from it (the same seed writes the same series). Returns the file
+    paths.
     """
     from pydicom.dataset import FileDataset, FileMetaDataset
     from pydicom.uid import ExplicitVRLittleEndian, generate_uid
@@ -34,9 +39,13 @@ def write_dicom_series(
     sop_class = {"CT": "1.2.840.10008.5.1.4.1.1.2", "MR": "1.2.840.10008.5.1.4.1.1.4"}.get(
         modality, "1.2.840.10008.5.1.4.1.1.7"
     )
-    series_uid = series_uid or generate_uid()
-    study_uid = study_uid or generate_uid()
-    frame_uid = generate_uid()
+
+    def new_uid(role: str) -> str:
+        return generate_uid(entropy_srcs=[uid_seed, role]) if uid_seed is not None else generate_uid()
+
+    series_uid = series_uid or new_uid("series")
+    study_uid = study_uid or new_uid("study")
+    frame_uid = new_uid("frame of reference")
     values = np.asarray(volume.array, dtype=np.float64)
     if rescale_intercept is not None:
         stored = np.rint((values - rescale_intercept) / rescale_slope)
@@ -54,7 +63,7 @@ def write_dicom_series(
     for k in range(nz):
         meta = FileMetaDataset()
         meta.MediaStorageSOPClassUID = sop_class
-        meta.MediaStorageSOPInstanceUID = generate_uid()
+        meta.MediaStorageSOPInstanceUID = new_uid(f"instance {k}")
         meta.TransferSyntaxUID = ExplicitVRLittleEndian
         name = file_names[k] if file_names is not None else f"slice_{k:04d}.dcm"
         path = folder / name
@@ -68,8 +77,8 @@ def write_dicom_series(
         ds.SeriesDescription = description
         ds.SeriesNumber = series_number
         ds.InstanceNumber = k + 1
-        ds.PatientName = "Phantom^Voxelscope"
-        ds.PatientID = "VOXELSCOPE-0001"
+        ds.PatientName = patient_name
+        ds.PatientID = patient_id
         ds.ImageType = ["ORIGINAL", "PRIMARY", "AXIAL"]
         position = volume.index_to_world((0, 0, k))
         ds.ImagePositionPatient = [f"{v:.6f}".rstrip("0").rstrip(".") for v in position]

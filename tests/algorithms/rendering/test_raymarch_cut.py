@@ -32,7 +32,8 @@ def _renderer(volume, table, lighting):
 def test_leaping_through_removed_samples_leaves_the_image_unchanged(scene, evaluation, lighting):
     volume, camera, table = scene
     frame = volume.local_to_world
-    tools = [sphere_tool((20.0, -60.0, 20.0), 60.0), box_tool((-40.0, -40.0, 40.0), (60, 50, 70), (0, 20, 45))]
+    # The sphere takes the front of the skull away (the camera sees the frontal bone), the box a corner behind it.
+    tools = [sphere_tool((20.0, -90.0, 20.0), 60.0), box_tool((-40.0, -40.0, 40.0), (60, 50, 70), (0, 20, 45))]
     placed = tool_set(tools, frame, evaluation=evaluation, width=min(volume.spacing))
     # Also a non-rigid placement (the sphere stretched into an ellipsoid): the leap is divided by the largest
     # singular value of the matrix, so it stays conservative.
@@ -62,7 +63,7 @@ def _ball_mask_tool(mode, *, role="mask"):
     values = inside if role == "mask" else np.where(inside, -1.0, 1.0) * np.abs(radius - 35.0)
     transform = np.eye(4)
     transform[:3, :3] = rotation_matrix((10, 20, 30)) @ np.diag([1.3, 1.0, 0.8])
-    transform[:3, 3] = (20.0, -60.0, 20.0)
+    transform[:3, 3] = (20.0, -95.0, 20.0)  # through the frontal bone, which the camera sees
     return grid_tool(values, grid, role=role, transform=transform, mode=mode)
 
 

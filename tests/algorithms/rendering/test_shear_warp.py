@@ -374,7 +374,7 @@ def test_finer_normal_table_bands_less_and_headlight_lights_the_centre():
 # --------------------------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def full_phantom():
-    volume = ct_head_phantom()
+    volume = ct_head_phantom((88, 256, 256))  # the sample's field of view at 1.1 x 1.1 x 3 mm
     function = transfer_function_for(volume, "ct-bone", shading=False)
     renderer = ShearWarpRenderer(volume.array, volume.spacing, function.to_table(volume.value_range))
     return volume, function, renderer

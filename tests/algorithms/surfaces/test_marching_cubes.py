@@ -186,9 +186,10 @@ def test_case_by_case_against_vtk():
 
 @pytest.fixture(scope="module")
 def ct_small():
+    """The CT phantom's whole field of view on a coarse grid (2.9 x 2.9 x 6.6 mm): the skull is a closed surface."""
     from app.datasets import ct_head_phantom
 
-    return ct_head_phantom(shape=(40, 96, 96), spacing=(2.5, 2.5, 5.4))
+    return ct_head_phantom(shape=(40, 96, 96))
 
 
 def _compare_with_vtk(volume, iso, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0)):
@@ -200,22 +201,27 @@ def _compare_with_vtk(volume, iso, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.
     keep_theirs = off_ambiguous_cells(points, triangles, ambiguous, spacing, origin)
     comparison = sc.same_triangles(ours.points, ours.triangles[keep_ours], points, triangles[keep_theirs], rtol=RTOL)
     assert comparison.equal, comparison.summary()
-    return ours, (points, triangles), keep_ours
+    return ours, (points, triangles), keep_ours, keep_theirs, int(ambiguous.sum())
 
 
 @pytest.mark.parametrize("noise_hu", [0.0, 30.0])
 @pytest.mark.parametrize("iso", [300.0, 300.5, -300.0])
 def test_matches_vtk_except_on_ambiguous_cells_ct(iso, noise_hu):
-    """Bone (300 HU, with samples exactly at the isovalue, and 300.5 HU) and skin (-300 HU). The clean phantom
-    has no ambiguous cell at these isovalues, so all triangles are compared; with 30 HU of noise a few dozen
-    cells are ambiguous, and area and volume still agree within 0.1 %."""
+    """Bone (300 HU, with samples exactly at the isovalue, and 300.5 HU) and skin (-300 HU) of the CT phantom, clean
+    and with 30 HU of noise. The phantom's thin bone, air cells and resolution rods make some cells ambiguous (where
+    Bourke's and VTK's tables split a cell differently); every other triangle is the same, and the area and enclosed
+    volume differ by no more than the ambiguous cells can hold."""
     from app.datasets import ct_head_phantom
 
     volume = ct_head_phantom(shape=(40, 96, 96), spacing=(2.5, 2.5, 5.4), noise_hu=noise_hu, seed=1)
-    ours, theirs, kept = _compare_with_vtk(volume.array, iso, volume.spacing, volume.origin)
-    assert kept.all() if noise_hu == 0 else kept.mean() > 0.99
-    assert sc.surface_area(ours) == pytest.approx(sc.surface_area(theirs), rel=1e-3)
-    assert sc.enclosed_volume(ours) == pytest.approx(sc.enclosed_volume(theirs), rel=1e-3)
+    ours, theirs, kept, kept_theirs, ambiguous = _compare_with_vtk(volume.array, iso, volume.spacing, volume.origin)
+    assert kept.mean() > 0.99
+    in_ambiguous = max(sc.surface_area(ours.points, ours.triangles[~kept]),
+                       sc.surface_area(theirs[0], theirs[1][~kept_theirs]))
+    area, volume_mm3 = sc.surface_area(ours), sc.enclosed_volume(ours)
+    rounding = 1e-7  # float32 vertices: relative rounding of sums over 10^5 triangles
+    assert abs(area - sc.surface_area(theirs)) <= in_ambiguous + rounding * area
+    assert abs(volume_mm3 - sc.enclosed_volume(theirs)) <= ambiguous * np.prod(volume.spacing) + rounding * volume_mm3
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -223,14 +229,14 @@ def test_matches_vtk_except_on_ambiguous_cells_ct(iso, noise_hu):
 def test_matches_vtk_except_on_ambiguous_cells_random(seed, iso):
     """Random integer fields: at 500 many samples equal the isovalue (vertices merged onto samples)."""
     field = np.random.default_rng(seed).integers(0, 1000, size=(12, 13, 14)).astype(np.int16)
-    _, _, kept = _compare_with_vtk(field, iso, spacing=(0.7, 1.1, 1.9), origin=(-3.0, 2.0, 5.0))
+    _, _, kept, _, _ = _compare_with_vtk(field, iso, spacing=(0.7, 1.1, 1.9), origin=(-3.0, 2.0, 5.0))
     assert kept.mean() > 0.2  # the comparison still covers a good part of the mesh
 
 
 def test_matches_vtk_on_a_binary_mask():
     """Isovalue 1 on a 0/1 mask puts every vertex on a sample: heavy merging and dropped collapsed triangles."""
     mask = (np.random.default_rng(7).random((10, 11, 12)) < 0.4).astype(np.uint8)
-    ours, _, _ = _compare_with_vtk(mask, 1.0)
+    ours, _, _, _, _ = _compare_with_vtk(mask, 1.0)
     assert len(np.unique(ours.points, axis=0)) == len(ours.points)
     t = ours.triangles
     assert np.all((t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2]))
@@ -248,11 +254,11 @@ def test_complement_identity_on_random_fields(seed):
     assert comparison.equal, comparison.summary()
 
 
-def test_full_size_ct_phantom_matches_vtk():
+def test_ct_phantom_at_a_scanner_size_matches_vtk():
     from app.datasets import ct_head_phantom
 
-    volume = ct_head_phantom()
-    ours, theirs, kept = _compare_with_vtk(volume.array, 300.0, volume.spacing, volume.origin)
+    volume = ct_head_phantom((88, 256, 256))  # the sample's field of view at 1.1 x 1.1 x 3 mm
+    ours, theirs, kept, _, _ = _compare_with_vtk(volume.array, 300.0, volume.spacing, volume.origin)
     assert len(ours.triangles) > 100_000
     assert sc.surface_area(ours) == pytest.approx(sc.surface_area(theirs), rel=1e-3)
     assert sc.enclosed_volume(ours) == pytest.approx(sc.enclosed_volume(theirs), rel=1e-3)

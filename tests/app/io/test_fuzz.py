@@ -1,7 +1,7 @@
 """The readers' contract on damaged files (see :mod:`tests.app.io.fuzz`): in-process loads and the command line.
 
-The default run checks every third variant of the fixed-seed set and three command lines; the ``slow`` run checks
-all variants, two more seeds, and a sample through ``voxelscope info``.
+The default run checks every third variant of the fixed-seed set and three command lines; the long run
+(``-m long_fuzz``) checks all variants, two more seeds, and a sample through ``voxelscope info``.
 """
 
 from __future__ import annotations
@@ -60,18 +60,18 @@ def test_command_line_on_damaged_files(variants):
         assert outcome.message.startswith("voxelscope: error: ")
 
 
-@pytest.mark.slow
+@pytest.mark.long_fuzz
 def test_all_damaged_files_keep_the_contract(variants):
     _check(run_variants(variants), "damaged files, all variants (seed 20)")
 
 
-@pytest.mark.slow
+@pytest.mark.long_fuzz
 @pytest.mark.parametrize("seed", [1, 2])
 def test_more_seeds(tmp_path, seed):
     _check(run_variants(generate(tmp_path, seed=seed)), f"damaged files, seed {seed}")
 
 
-@pytest.mark.slow
+@pytest.mark.long_fuzz
 def test_command_line_on_a_sample(variants):
     _check(run_cli(variants[::11]), "voxelscope info, every 11th variant")
 

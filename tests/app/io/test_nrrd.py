@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import gzip
 import os
-import time
 
 import nibabel
 import nrrd
@@ -124,6 +123,7 @@ def test_gzip_crc_error_is_refused(tmp_path):
         load_volume(tmp_path / "crc.nrrd")
 
 
+@pytest.mark.timeout(60)  # a hang fails here, with the stacks, instead of stopping the run
 def test_special_data_files_and_huge_line_skip_do_not_hang(tmp_path):
     os.mkfifo(tmp_path / "pipe.raw")
     base = "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"
@@ -131,14 +131,12 @@ def test_special_data_files_and_huge_line_skip_do_not_hang(tmp_path):
     (tmp_path / "zero.nhdr").write_text(base + "data file: /dev/zero\n")
     (tmp_path / "data.raw").write_bytes(bytes(8))
     (tmp_path / "lines.nhdr").write_text(base + "line skip: 1000000000\ndata file: data.raw\n")
-    started = time.monotonic()
     with pytest.raises(VolumeReadError, match="FIFO"):
         load_volume(tmp_path / "fifo.nhdr")
     with pytest.raises(VolumeReadError, match="device"):
         load_volume(tmp_path / "zero.nhdr")
     with pytest.raises(CorruptFileError, match="skips more lines than the data holds"):
         load_volume(tmp_path / "lines.nhdr")
-    assert time.monotonic() - started < 5
 
 
 def test_header_without_end_and_binary_garbage(tmp_path):
