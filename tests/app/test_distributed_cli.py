@@ -66,6 +66,19 @@ def test_mesh_with_local_cluster(store_and_reference, tmp_path):
     _same_as_reference(output, reference)
 
 
+def _scheduler_address(scheduler_file, scheduler, seconds=120.0):
+    """The address the scheduler wrote to ``scheduler_file``. dask writes the file in place, so it can exist empty
+    or half-written for a moment: read it until it holds a whole JSON document."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        assert scheduler.poll() is None, f"the dask scheduler exited with status {scheduler.returncode}"
+        try:
+            return json.loads(scheduler_file.read_text())["address"]
+        except (FileNotFoundError, json.JSONDecodeError, KeyError):
+            time.sleep(0.2)
+    raise AssertionError(f"the dask scheduler wrote no address to {scheduler_file} in {seconds:g} s")
+
+
 @pytest.mark.slow
 def test_mesh_with_scheduler_and_two_workers(store_and_reference, tmp_path):
     store, reference = store_and_reference
@@ -74,10 +87,7 @@ def test_mesh_with_scheduler_and_two_workers(store_and_reference, tmp_path):
                                    "--no-dashboard", "--scheduler-file", str(scheduler_file)],
                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)]
     try:
-        deadline = time.monotonic() + 120
-        while not scheduler_file.exists() and time.monotonic() < deadline:
-            time.sleep(0.2)
-        address = json.loads(scheduler_file.read_text())["address"]
+        address = _scheduler_address(scheduler_file, processes[0])
         assert address.startswith("tcp://127.0.0.1:")
         for _ in range(2):
             processes.append(subprocess.Popen([str(DASK), "worker", address, "--nthreads", "1", "--no-dashboard"],
