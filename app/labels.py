@@ -277,7 +277,7 @@ def mesh_file_name(label: int, name: str, suffix: str) -> str:
 
 def export_label_meshes(volume: Volume, folder, *, labels: str | Sequence[int] = "all", table: LabelTable | None = None,
                         method: str = "flying-edges", suffix: str = ".stl", coordinates: str = "LPS",
-                        cleanup: dict | None = None, options: dict | None = None, overwrite: bool = False,
+                        cleanup=None, options: dict | None = None, overwrite: bool = False,
                         progress=None) -> dict[str, Any]:
     """Write one closed mesh per label into ``folder`` and ``folder/labels.json`` listing them; returns the listing.
 
@@ -353,30 +353,3 @@ def export_label_meshes(volume: Volume, folder, *, labels: str | Sequence[int] =
     if progress is not None:
         progress(1.0)
     return listing
-
-
-def run_mesh_command(volume: Volume, args, options: dict) -> int:
-    """``voxelscope mesh LABELS --labels all|1,5,9 -o DIR [--json]`` (called by :mod:`app.cli.mesh`)."""
-    from .cli.common import print_json
-
-    cleanup = {}
-    if args.smooth:
-        cleanup.update(smooth_iterations=args.smooth, smooth_passband=args.passband)
-    if args.decimate:
-        cleanup["decimate"] = args.decimate
-    if args.fill_holes:
-        cleanup["fill_holes_mm"] = args.fill_holes
-    table = table_for(volume, args.color_table)
-    listing = export_label_meshes(volume, args.output, labels=args.labels, table=table, method=args.method,
-                                  suffix="." + args.format, coordinates=args.coordinates, cleanup=cleanup,
-                                  options=options, overwrite=args.force)
-    listing["folder"] = str(Path(args.output).expanduser())
-    if args.json:
-        print_json(listing)
-        return 0
-    for mesh in listing["meshes"]:
-        print(f"{mesh['label']:>5}  {mesh['name'][:40]:<40} {mesh['voxel_volume_mm3']:>12.1f} mm^3 of voxels, "
-              f"mesh {mesh['mesh_volume_mm3']:.1f} mm^3, watertight={mesh['watertight']}  {mesh['file']}")
-    print(f"Wrote {len(listing['meshes'])} meshes and labels.json to {listing['folder']} "
-          f"({listing['coordinate_system']} mm, {listing['seconds']:.1f} s)")
-    return 0

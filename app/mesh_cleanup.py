@@ -17,6 +17,8 @@ agree with their surroundings.
 - :func:`validity_report`: watertight, manifold, outward, pieces, counts, area and volume (the definitions of
   :mod:`algorithms.compare`, computed lean and with progress by :mod:`app.mesh_validity`).
 - :func:`apply`: the steps chosen for an export, in that order (largest piece, holes, smoothing, decimation).
+- :class:`Cleanup`: the steps chosen for an export as one value, the one type the command line's flags, the export
+  dialog and the one-mesh-per-label export fill in.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from algorithms.common.progress import ProgressCallback, report, scaled
 from algorithms.common.vtk_bridge import run_algorithm
 
 __all__ = [
+    "Cleanup",
     "DecimationError",
     "ValidityReport",
     "apply",
@@ -343,6 +346,43 @@ def validity_report(polydata, *, progress: ProgressCallback = None) -> ValidityR
         area_mm2=numbers["area_mm2"],
         volume_mm3=numbers["volume_mm3"] if edges.watertight and outward else None,
     )
+
+
+@dataclass(frozen=True)
+class Cleanup:
+    """The clean-up steps chosen for an export (the defaults choose none), checked when made: windowed-sinc
+    ``smooth_iterations`` with its ``smooth_passband`` in (0, 2], ``decimate`` (the fraction of triangles to remove,
+    in [0, 1)), ``largest_component`` (drop islands) and ``fill_holes_mm`` (close holes up to this size)."""
+
+    smooth_iterations: int = 0
+    smooth_passband: float = 0.1
+    decimate: float = 0.0
+    largest_component: bool = False
+    fill_holes_mm: float = 0.0
+
+    def __post_init__(self) -> None:
+        if isinstance(self.smooth_iterations, bool) or int(self.smooth_iterations) != self.smooth_iterations \
+                or self.smooth_iterations < 0:
+            raise ValueError(f"smoothing iterations must be a whole number >= 0, got {self.smooth_iterations!r}")
+        if not 0.0 < float(self.smooth_passband) <= 2.0:
+            raise ValueError(f"the smoothing pass band must lie in (0, 2], got {self.smooth_passband!r}")
+        if not 0.0 <= float(self.decimate) < 1.0:
+            raise ValueError(f"decimation is the fraction of triangles to remove, in [0, 1); got {self.decimate!r}")
+        if not 0.0 <= float(self.fill_holes_mm) < float("inf"):
+            raise ValueError(f"the largest hole to close must be a size >= 0 mm, got {self.fill_holes_mm!r}")
+
+    def chosen(self) -> dict[str, Any]:
+        """The chosen steps only, as :func:`apply`'s keywords (what a mesh's sidecar records)."""
+        steps: dict[str, Any] = {}
+        if self.largest_component:
+            steps["largest_component"] = True
+        if self.fill_holes_mm:
+            steps["fill_holes_mm"] = float(self.fill_holes_mm)
+        if self.smooth_iterations:
+            steps.update(smooth_iterations=int(self.smooth_iterations), smooth_passband=float(self.smooth_passband))
+        if self.decimate:
+            steps["decimate"] = float(self.decimate)
+        return steps
 
 
 def apply(

@@ -32,13 +32,14 @@ import numpy as np
 from algorithms.common.progress import ProgressCallback, report, scaled
 from algorithms.compare import triangulated
 
+from .mesh_cleanup import Cleanup
 from .mesh_files import MESH_SUFFIXES, check_mesh_targets, sidecar_path, write_mesh_files
-from .pipeline.surfaces import SurfaceResult, polydata_stats
+from .pipeline.lit_surfaces import SurfaceResult, polydata_stats
 from .volume import Volume
 
 __all__ = [
     "COORDINATE_SYSTEMS", "EmptySurfaceError", "MAX_TRIANGLES", "MESH_SUFFIXES", "MeshExport", "MeshTooLargeError",
-    "SurfaceForExport", "check_isovalue", "closed_at_edges", "default_iso", "estimate_triangles", "export_mesh",
+    "SurfaceForExport", "check_isovalue", "closed_at_edges", "estimate_triangles", "export_mesh",
     "extract_surface", "merge_duplicate_points", "mesh_provenance", "sidecar_path", "surface_for_export",
     "surface_methods", "to_world", "write_export", "write_mesh",
 ]
@@ -60,14 +61,6 @@ class MeshTooLargeError(ValueError):
         super().__init__(message)
         self.triangles = int(triangles)
         self.limit = int(limit)
-
-
-def default_iso(volume: Volume) -> float:
-    """A sensible first isovalue: 300 HU (bone) for CT in HU, else 35 % into the robust value range."""
-    if volume.units == "HU":
-        return 300.0
-    lo, hi = volume.percentile_range()
-    return lo + 0.35 * (hi - lo)
 
 
 def source_name(volume) -> str:
@@ -327,18 +320,16 @@ def surface_for_export(volume: Volume, *, method: str, iso: float, stride: int =
                             parameters)
 
 
-def write_export(surface: SurfaceForExport, path, *, cleanup: dict[str, Any] | None = None, overwrite: bool = False,
+def write_export(surface: SurfaceForExport, path, *, cleanup: Cleanup | None = None, overwrite: bool = False,
                  sidecar: bool = True, progress: ProgressCallback = None) -> MeshExport:
-    """Clean up, validate and write a surface with its sidecar (``sidecar=False``: the mesh alone).
-
-    ``cleanup`` keys (all optional): ``smooth_iterations`` (windowed sinc), ``smooth_passband``, ``decimate``
-    (target reduction in [0, 1)), ``largest_component`` (bool), ``fill_holes_mm`` (max hole size). STL, PLY and
-    OBJ get triangles. Every step reports progress and honours cancellation.
+    """Clean up (the steps of a :class:`app.mesh_cleanup.Cleanup`), validate and write a surface with its sidecar
+    (``sidecar=False``: the mesh alone). STL, PLY and OBJ get triangles. Every step reports progress and honours
+    cancellation.
     """
     from . import mesh_cleanup
 
     path = check_mesh_targets(path, sidecar=sidecar, overwrite=overwrite)
-    cleanup = dict(cleanup or {})
+    cleanup = (cleanup or Cleanup()).chosen()
     notes: dict[str, Any] = {}
     polydata = mesh_cleanup.apply(surface.polydata, progress=scaled(progress, 0.0, 0.4), notes=notes, **cleanup)
     triangles = triangulated(polydata)
@@ -357,7 +348,7 @@ def write_export(surface: SurfaceForExport, path, *, cleanup: dict[str, Any] | N
 
 def export_mesh(volume: Volume, path, *, method: str, iso: float, stride: int = 1,
                 options: dict[str, Any] | None = None, coordinates: str = "LPS",
-                cleanup: dict[str, Any] | None = None, close_edges: bool = False, overwrite: bool = False,
+                cleanup: Cleanup | None = None, close_edges: bool = False, overwrite: bool = False,
                 allow_large: bool = False, progress: ProgressCallback = None, result: SurfaceResult | None = None,
                 sidecar: bool = True) -> MeshExport:
     """Extract (unless ``result`` is given), clean up, validate and write a mesh with its sidecar.

@@ -383,3 +383,16 @@ def right_handed(volume: Volume) -> Volume:
     )
     flipped.metadata["index_frame"] = "i axis reversed on loading to make the index frame right-handed"
     return flipped
+
+
+def default_isovalue(units: str, value_range) -> float:
+    """The first isovalue of every surface: 300 HU (bone) for CT in HU, else 35 % into ``value_range`` (low, high)."""
+    if units == "HU":
+        return 300.0
+    lo, hi = value_range
+    return lo + 0.35 * (hi - lo)
+
+
+def default_iso(volume: Volume) -> float:
+    """:func:`default_isovalue` of a volume in memory, 35 % into its robust (0.5 to 99.5 %) value range."""
+    return default_isovalue(volume.units, None if volume.units == "HU" else volume.percentile_range())

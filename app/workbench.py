@@ -1,6 +1,7 @@
 """The workbench's state, without Qt: the scene (volumes, fields, meshes, label maps...), the item the views show,
 the isovalue, the transfer function, window/level, the layout of views, each view's render mode and options, camera
-linking, the slice cursor with its oblique rotation and interpolation, label display and the measurements.
+linking, the slice cursor with its oblique rotation and interpolation, label display, the measurements and the
+cut-away tools.
 
 Widgets in ``ui`` subscribe to the signals and write back through the setters; tests and scripts drive the same
 object headless. Setters validate their input (ValueError with a clear message) and emit only on real changes.
@@ -21,12 +22,12 @@ import numpy as np
 
 from .events import Signal
 from .measurements import Measurement, MeasurementList
-from .meshing import default_iso
 from .modes import get_mode, modes_for
 from .scene import FieldItem, MeshItem, Scene, VolumeItem
+from .cutaways import Cutaways
 from .slices import PLANES, plane_frame, rotation_about
 from .transfer import PRESETS, Shading, TransferFunction, default_preset_name, transfer_function_for
-from .volume import Volume
+from .volume import Volume, default_iso
 
 LAYOUTS = {"1x1": (1, 1), "1x2": (1, 2), "2x2": (2, 2)}
 DEFAULT_MODES = ("flying-edges", "vtk-gpu", "vtk-marching-cubes", "vtk-cpu")
@@ -156,6 +157,7 @@ class WorkbenchModel:
         self.interpolation: str = "linear"
         self.label_opacity: float = 0.5
         self.measurements = MeasurementList()
+        self.cutaways = Cutaways()  # the cut-away tools every 3D view honours (LPS mm)
         self._replaying = 0
 
     # -- items -------------------------------------------------------------------------------------------------------

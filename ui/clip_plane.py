@@ -73,7 +73,7 @@ class ClipPlaneWidget:
         if not self._clips() or content is None or not hasattr(content, "bounds") or content.bounds() is None:
             self._set_enabled(False)
             return
-        from app.pipeline.tetrahedra import clip_plane
+        from app.modes.tetrahedra import clip_plane
 
         bounds = content.bounds()
         self.representation.PlaceWidget(bounds)

@@ -17,6 +17,8 @@ from qtpy.QtWidgets import (
     QVBoxLayout,
 )
 
+from app.mesh_cleanup import Cleanup
+
 
 class SeriesChooser(QDialog):
     """Pick one of several image series found in a DICOM folder (largest first, preselected)."""
@@ -98,15 +100,8 @@ class ExportOptionsDialog(QDialog):
         form.addRow(buttons)
 
     def options(self) -> dict:
-        cleanup = {}
-        if self.smooth.value():
-            cleanup["smooth_iterations"] = self.smooth.value()
-        if self.decimate.value():
-            cleanup["decimate"] = self.decimate.value()
-        if self.largest.isChecked():
-            cleanup["largest_component"] = True
-        if self.fill_holes.value():
-            cleanup["fill_holes_mm"] = self.fill_holes.value()
+        cleanup = Cleanup(smooth_iterations=self.smooth.value(), decimate=self.decimate.value(),
+                          largest_component=self.largest.isChecked(), fill_holes_mm=self.fill_holes.value())
         return {"coordinates": self.coordinates.currentData(), "cleanup": cleanup,
                 "close_edges": self.close_edges.isChecked()}
 

@@ -81,7 +81,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     from pathlib import Path
 
-    from app.selection import tools_from_specs
+    from app.cutaways import tools_from_specs
 
     try:
         tools = tools_from_specs(args.cut, mode=args.cut_mode)
@@ -127,8 +127,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     window.ask_for_series = not (args.exit or args.screenshot)
     if tools:  # before the volume opens, so every view starts cut
         window.current_tool = 0
-        window.selection.evaluation = args.cut_eval
-        window.selection.set_tools(tools)
+        window.model.cutaways.evaluation = args.cut_eval
+        window.model.cutaways.set_tools(tools)
     if args.layout:
         window.model.set_layout(args.layout)
     for index, mode in enumerate(modes[:4]):

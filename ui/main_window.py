@@ -1,18 +1,21 @@
 """The Voxelscope workbench window: a grid of linked 3D views beside three large slice views (any view can be shown
 alone), the docks (controls, scene, measurements, provenance), file, session, label and export actions, measuring
-tools, undo/redo, and a status bar with progress and Cancel for long work.
+tools, undo/redo, and a status bar with progress and Cancel for long work (:mod:`.task_progress`).
 
-The window is assembled from mixins, one concern each: :mod:`.window_layout` (views, docks, View menu),
-:mod:`.window_files` (opening), :mod:`.window_export` (meshes, screenshots), :mod:`.window_scene` (operations,
-overlays), :mod:`.window_tools` (measurements, labels, provenance, undo) and :mod:`.window_session` (sessions).
+The window is assembled from mixins, one concern each: :mod:`.window_layout` (views, docks, View menu, the default
+views), :mod:`.window_files` (opening), :mod:`.window_export` (meshes, screenshots), :mod:`.window_scene`
+(operations, overlays), :mod:`.window_tools` (measurements, labels, provenance, undo), :mod:`.window_cutaways`
+(cut-away tools) and :mod:`.window_session` (sessions).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
-from qtpy.QtCore import QByteArray, QSettings, QTimer, Signal
+from qtpy.QtCore import QByteArray, QSettings, Signal
 from qtpy.QtGui import QAction, QActionGroup, QKeySequence
-from qtpy.QtWidgets import QApplication, QLabel, QMainWindow, QMessageBox, QProgressBar, QPushButton
+from qtpy.QtWidgets import QApplication, QMainWindow, QMessageBox
 
 from algorithms.common.camera import Camera
 from app.framing import framing_camera
@@ -24,7 +27,8 @@ from app.workbench import LAYOUTS, MAX_VIEWS, WorkbenchModel
 from . import gui_thread_gc
 from .camera_link import CameraLink
 from .render_view import RenderView
-from .tasks import Task, TaskRunner
+from .task_progress import TaskProgress
+from .tasks import TaskRunner
 from .window_cutaways import CutawayActions
 from .window_export import ExportActions
 from .window_files import FileActions
@@ -68,7 +72,9 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
             self.views.append(view)
         self.camera_link.camera_moved.connect(self._camera_moved)
         self._build_views()  # window_layout: grid of 3D views, slice views, splitter, docks
-        self._build_status_bar()
+        self.task_progress = TaskProgress(self.tasks, self.statusBar(), self)
+        self.task_progress.idle.connect(self._tasks_idle)
+        self.progress, self.cancel_button = self.task_progress.bar, self.task_progress.cancel_button
         self._build_tools()  # window_tools: undo stack, measuring tools, panels
         self._build_cutaways()  # window_cutaways: cut-away tools, their widgets and list (issue 15)
         self._build_menus()
@@ -100,30 +106,6 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
         self._remember_default_layout()
         self._restore_settings()
         self._apply_layout(self.model.layout)
-
-    # -- status bar ----------------------------------------------------------------------------------------------
-    def _build_status_bar(self) -> None:
-        self.progress = QProgressBar()
-        self.progress.setRange(0, 100)
-        self.progress.setTextVisible(False)
-        self.progress.setMaximumWidth(220)
-        self._progress_value = 0.0
-        # Progress is shown at most five times a second: every repaint of this window also composes the 3D
-        # views, which costs real time with software OpenGL.
-        self._progress_timer = QTimer(self)
-        self._progress_timer.setInterval(200)
-        self._progress_timer.timeout.connect(self._show_progress)
-        self.progress.setEnabled(False)
-        self.progress_label = QLabel("")
-        self.cancel_button = QPushButton("Cancel")
-        self.cancel_button.setObjectName("cancel")
-        self.cancel_button.setEnabled(False)
-        self.cancel_button.clicked.connect(self.tasks.cancel_all)
-        self.statusBar().addPermanentWidget(self.progress_label)
-        self.statusBar().addPermanentWidget(self.progress)
-        self.statusBar().addPermanentWidget(self.cancel_button)
-        self.tasks.started.connect(self._task_started)
-        self.tasks.ended.connect(self._task_ended)
 
     # -- menus ------------------------------------------------------------------------------------------------
     def _build_menus(self) -> None:
@@ -189,6 +171,7 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
         self.slices_action.setCheckable(True)
         self.slices_action.setChecked(True)
         self._action(view_menu, "Reset &layout", self.reset_window_layout)
+        self._action(view_menu, "Use these views as the &default", self.save_default_views)
         view_menu.addSeparator()
         self.link_action = self._action(view_menu, "&Link cameras", self.model.set_cameras_linked)
         self.link_action.setCheckable(True)
@@ -230,9 +213,9 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
         """Give a view the item on show, with the model's isovalue and transfer function and the view's mode."""
         model = self.model
         inputs = view_inputs(model.item, iso=model.iso if model.volume is not None else None)
-        inputs.transfer_function = model.transfer_function or inputs.transfer_function
+        inputs = replace(inputs, transfer_function=model.transfer_function or inputs.transfer_function)
         if getattr(model.item, "volume", None) is not None:  # cut-away tools (issue 15)
-            inputs.tools, inputs.cut_evaluation = tuple(self.selection.tools), self.selection.evaluation
+            inputs = replace(inputs, tools=tuple(model.cutaways.tools), cut_evaluation=model.cutaways.evaluation)
         view.show_item(inputs, model.view_modes[view.index], model.view_options[view.index])
         view.pipeline.set_overlays([item for item in model.scene if item is not model.item])
 
@@ -255,7 +238,6 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
             self._show_in(view)
         else:
             view.set_mode(mode, self.model.view_options[index])
-        self.settings.setValue("modes", ",".join(self.model.view_modes))
 
     def _each_visible(self, action) -> None:
         for view in self.views[: self.model.view_count]:
@@ -344,6 +326,10 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
         return (self.model.item is not None and not self.camera_link.pending
                 and all(view.is_ready for view in visible))
 
+    def _tasks_idle(self) -> None:
+        if self.views_ready():
+            self.all_views_ready.emit()
+
     def settle_layout(self) -> None:
         """Let every pending layout request and paint of the window's widgets (panels, docks, slice views) run."""
         from qtpy.QtCore import QEvent
@@ -365,38 +351,6 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
             if dock.isVisible() and not dock.isFloating() and min(dock.widget().width(), dock.widget().height()) < 2:
                 return False
         return True
-
-    # -- progress ------------------------------------------------------------------------------------------------
-    def _task_started(self, task: Task) -> None:
-        task.progress.connect(self._note_progress)
-        self._update_progress_widgets()
-
-    def _note_progress(self, fraction: float) -> None:
-        self._progress_value = fraction
-
-    def _show_progress(self) -> None:
-        value = int(self._progress_value * 100)
-        if value != self.progress.value():
-            self.progress.setValue(value)
-
-    def _task_ended(self, task: Task) -> None:
-        self._update_progress_widgets()
-
-    def _update_progress_widgets(self) -> None:
-        # The widgets stay in place (enabled or not) so the views never resize, and redraw, because of them.
-        running = self.tasks.running
-        busy = bool(running)
-        self.progress.setEnabled(busy)
-        self.cancel_button.setEnabled(busy)
-        self.progress_label.setText(running[-1].label if busy else "")
-        if busy and not self._progress_timer.isActive():
-            self._progress_value = 0.0
-            self._progress_timer.start()
-        if not busy:
-            self._progress_timer.stop()
-            self.progress.setValue(0)
-            if self.views_ready():
-                self.all_views_ready.emit()
 
     # -- settings --------------------------------------------------------------------------------------------
     def _restore_settings(self) -> None:
@@ -425,7 +379,6 @@ class MainWindow(FileActions, ExportActions, SceneActions, LayoutActions, ToolAc
     def closeEvent(self, event) -> None:  # noqa: N802
         self.settings.setValue("geometry", self.saveGeometry())
         self.settings.setValue("state", self.saveState())
-        self.settings.setValue("modes", ",".join(self.model.view_modes))
         self.settings.sync()
         self.pyramid.shutdown()  # before the tasks: a region read must not reach the views being shut down
         self.tasks.cancel_all()

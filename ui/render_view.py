@@ -13,6 +13,7 @@ under the pointer instead of turning the camera.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -20,6 +21,7 @@ from pyvistaqt import QtInteractor
 from qtpy.QtCore import QEvent, Qt, QTimer, Signal
 from qtpy.QtWidgets import QFrame, QHBoxLayout, QLabel, QSizePolicy, QToolButton, QVBoxLayout
 
+from app.modes import get_mode
 from app.pipeline import ViewInputs, ViewPipeline
 
 from .mode_chooser import ModeChooser
@@ -138,23 +140,20 @@ class RenderView(QFrame):
 
     def show_item(self, inputs: ViewInputs, mode: str, options: dict[str, Any]) -> None:
         """Show a new item with the view's mode (the chooser lists the modes that can show it)."""
-        inputs.interactive = True
-        inputs.background = tuple(self.renderer.GetBackground())
+        inputs = replace(inputs, interactive=True, background=tuple(self.renderer.GetBackground()))
         self.mode_box.set_item(inputs.item)
         self.mode_box.set_current(mode)
-        self.pipeline.set_inputs(inputs, mode, options)
+        self.pipeline.set_inputs(inputs, get_mode(mode), options)
         self._mode_shown()
 
     def replace_item(self, item) -> None:
         """Show another item in the same mode with the same inputs (a finer region of a pyramid, issue 19)."""
-        from dataclasses import replace
-
         if self.pipeline.inputs is not None and not self._shut_down:
             self.pipeline.set_inputs(replace(self.pipeline.inputs, item=item))
 
     def set_mode(self, mode: str, options: dict[str, Any] | None = None) -> None:
         self.mode_box.set_current(mode)
-        self.pipeline.set_mode(mode, options)
+        self.pipeline.set_mode(get_mode(mode), options)
         self._mode_shown()
 
     def _mode_shown(self) -> None:

@@ -1,6 +1,6 @@
 """The cut-away tool list of the control area: add (box, sphere, plane), remove, show/hide, mode (remove/keep) of
 the selected tool, and the evaluation (binary/distance) of all. Widgets only: every change is a signal the window
-turns into a change of the shared :class:`app.selection.Selection`."""
+turns into a change of the shared :class:`app.cutaways.Cutaways`."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from qtpy.QtWidgets import (
     QWidget,
 )
 
-from app.selection import CUT_EVALUATIONS, CUT_MODES
+from app.cutaways import CUT_EVALUATIONS, CUT_MODES
 
 
 def tool_label(tool) -> str:

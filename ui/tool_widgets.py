@@ -1,6 +1,6 @@
 """The cut-away tool of a 3D view as a VTK widget: a box (``vtkBoxWidget2``: move, rotate, scale by its faces),
 a sphere (``vtkSphereWidget2``) or a plane (``vtkImplicitPlaneWidget2``), the selected tool of the shared
-:class:`app.selection.Selection` (source 002, section 2.5: a selection volume placed by an affine transform).
+:class:`app.cutaways.Cutaways` (source 002, section 2.5: a selection volume placed by an affine transform).
 
 Every linked 3D view has one :class:`ToolWidget`; all show the same tool. Dragging calls ``on_moved(tool, moving)``
 with the tool the widget now describes (``moving`` True during the drag, False at release), and the window

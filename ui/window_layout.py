@@ -122,7 +122,16 @@ class LayoutActions:
             view.setVisible(visible and (self.enlarged is None or self.enlarged is view))
         if layout in getattr(self, "layout_actions", {}):
             self.layout_actions[layout].setChecked(True)
-        self.settings.setValue("layout", layout)
+
+    def save_default_views(self) -> None:
+        """View > Use these views as the default: the layout and each view's mode become what the next start shows.
+        Only this writes them (a preference, not a side effect: ``voxelscope gui --modes`` or a session opened today
+        does not change tomorrow's start)."""
+        self.settings.setValue("layout", self.model.layout)
+        self.settings.setValue("modes", ",".join(self.model.view_modes))
+        self.settings.sync()
+        self.statusBar().showMessage(f"New windows will start with {self.model.layout}: "
+                                     + ", ".join(self.model.view_modes[: self.model.view_count]), 10000)
 
     def _active_widget(self):
         """The view the user worked in last (a 3D view, or a slice view that has the focus)."""

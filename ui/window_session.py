@@ -11,23 +11,27 @@ from qtpy.QtCore import QByteArray
 from qtpy.QtWidgets import QFileDialog
 
 from algorithms.common.camera import Camera
-from app.session import apply_model_state, camera_from_dict, model_state, read_session, write_session
+from app.session import (apply_model_state, camera_from_dict, load_item, read_session, save_session, session_snapshot,
+                         write_session_files)
+
+from .tasks import Task
 
 SESSION_FILTER = "Voxelscope session (*.voxelscope.json *.json)"
 
 
 class SessionActions:
     # -- saving ---------------------------------------------------------------------------------------------------
-    def session_state(self) -> dict:
-        """Everything a session file holds for this window."""
+    def _cameras(self) -> list:
         views = self.views[: self.model.view_count] if not self.model.cameras_linked else self.views[:1]
-        cameras = [Camera.from_vtk(view.renderer.GetActiveCamera()) for view in views]
-        state = model_state(self.model, cameras=cameras)
+        return [Camera.from_vtk(view.renderer.GetActiveCamera()) for view in views]
+
+    def window_state(self) -> dict:
+        """The window's own part of a session (``"ui"``): docks, geometry, splitter, zoom, the tool in use."""
         enlarged = None
         if self.enlarged is not None:
             enlarged = (["slice", self.enlarged.plane] if self.enlarged in self.slice_views.values()
                         else ["view", self.enlarged.index])
-        state["ui"] = {
+        return {
             "geometry": bytes(self.saveGeometry().toBase64()).decode("ascii"),
             "docks": bytes(self.saveState().toBase64()).decode("ascii"),
             "splitter": list(self.splitter.sizes()),
@@ -36,13 +40,15 @@ class SessionActions:
             "active_view": self.active_view,
             "parallel_projection": self.parallel_action.isChecked(),
             "tool": self.tool,
+            "current_cutaway": self.current_tool,
             "zoom": {plane: [view.zoom, list(view.centre_st) if view.centre_st else None]
                      for plane, view in self.slice_views.items()},
         }
-        return state
 
     def save_session(self, path, *, overwrite: bool = False) -> Path:
-        return write_session(path, self.session_state(), overwrite=overwrite)
+        """Write the session now (the items made in the session too; see :func:`app.session.save_session`)."""
+        return save_session(path, self.model, cameras=self._cameras(), window=self.window_state(),
+                            overwrite=overwrite)
 
     def save_session_dialog(self) -> None:
         if self.model.base is None:
@@ -52,12 +58,13 @@ class SessionActions:
         if not path:
             return
         path = Path(path) if path.lower().endswith(".json") else Path(path + ".voxelscope.json")
-        try:
-            self.save_session(path, overwrite=path.exists())  # the dialog asked before replacing
-        except (OSError, ValueError) as exc:
-            self._report_error(f"Could not save the session {path}:\n\n{exc}")
-            return
-        self.statusBar().showMessage(f"Saved the session {path}", 15000)
+        # The state is taken now, on this thread; the files (fields can be large) are written in a worker.
+        state, items = session_snapshot(self.model, cameras=self._cameras(), window=self.window_state())
+        task = Task(f"Saving the session {path.name}", write_session_files, path, state, items,
+                    overwrite=path.exists())  # the dialog asked before replacing
+        task.finished.connect(lambda written: self.statusBar().showMessage(f"Saved the session {written}", 15000))
+        task.failed.connect(lambda exc: self._report_error(f"Could not save the session {path}:\n\n{exc}"))
+        self.tasks.start(task)
 
     # -- opening -------------------------------------------------------------------------------------------------
     def open_session_dialog(self) -> None:
@@ -76,7 +83,8 @@ class SessionActions:
             return False
         data = state["data"]
         self._session = {"path": str(path), "state": state, "labels": list(data.get("labels", [])),
-                         "meshes": [mesh for mesh in data.get("meshes", []) if Path(mesh).exists()]}
+                         "meshes": [mesh for mesh in data.get("meshes", []) if Path(mesh).exists()],
+                         "items": list(data.get("items", []))}
         self.volume_loaded.connect(self._session_step)
         self.load_failed.connect(self._session_failed)
         volume = data["volume"]
@@ -85,6 +93,15 @@ class SessionActions:
 
     def _session_failed(self, message: str) -> None:
         self._end_session_loading()
+
+    def _session_failed_with(self, message: str) -> None:
+        self._end_session_loading()
+        self.load_failed.emit(message)
+        self._report_error(message, "Could not open the session")
+
+    def _session_item_loaded(self, item) -> None:
+        self.model.scene.add(item)
+        self._session_step(None)
 
     def _end_session_loading(self) -> None:
         for signal, slot in ((self.volume_loaded, self._session_step), (self.load_failed, self._session_failed)):
@@ -107,6 +124,14 @@ class SessionActions:
         if session["meshes"]:
             self.open_path(session["meshes"].pop(0))
             return
+        if session["items"]:  # what was made in the session, read from the session's own folder
+            entry = session["items"].pop(0)
+            task = Task(f"Reading {entry.get('name', 'an item')} of the session", load_item, session["path"], entry)
+            task.finished.connect(self._session_item_loaded)
+            task.failed.connect(lambda exc: self._session_failed_with(f"Could not restore the session's item "
+                                                                      f"{entry.get('name')}:\n\n{exc}"))
+            self.tasks.start(task)
+            return
         session = self._end_session_loading()
         self._restore_session(session["state"])
         self.statusBar().showMessage(f"Opened the session {session['path']}", 15000)
@@ -118,6 +143,8 @@ class SessionActions:
             self.restoreGeometry(QByteArray.fromBase64(window["geometry"].encode("ascii")))
         if window.get("docks"):
             self.restoreState(QByteArray.fromBase64(window["docks"].encode("ascii")))
+        count = len((state.get("cutaways") or {}).get("tools", []))
+        self.current_tool = min(int(window.get("current_cutaway", 0)), count - 1)
         apply_model_state(self.model, state)
         self.parallel_action.setChecked(bool(window.get("parallel_projection", False)))
         self.slices_action.setChecked(bool(window.get("slices_shown", True)))

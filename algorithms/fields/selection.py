@@ -98,6 +98,9 @@ class Tool:
     role: str = ""
     visible: bool = True
     label: str = ""
+    #: Where a grid tool's values were read from (a file path; "" when they were made in memory), so that a saved
+    #: session can read them again.
+    source: str = ""
     #: Grid tools' leap depth tables by (mode, evaluation, width): made once per tool and shared by its moved copies
     #: (the depths live in the grid's own index frame, which moves with the matrix).
     leap_cache: dict = field(default_factory=dict, repr=False, compare=False)

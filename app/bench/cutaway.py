@@ -68,7 +68,7 @@ def _bunny_tool():
 
 
 def _tools():
-    from ..selection import parse_cut
+    from ..cutaways import parse_cut
 
     tools = {"sphere": parse_cut(SPHERE), "box 45 degrees": parse_cut(BOX)}
     bunny, note = _bunny_tool()
@@ -85,9 +85,10 @@ def _accepting(name: str) -> bool:
 
 def _frame_seconds(item, mode, shading, size, frames, tool=None) -> float:
     """Median frame time (s) of ``mode`` on ``item`` over ``frames`` frames of the turning camera."""
+    from ..modes import get_mode
     from ..pipeline.headless import RenderSettings, render_item
 
-    settings = RenderSettings(mode=mode, size=size, shading=shading, frames=frames, parallel=mode == "shear-warp",
+    settings = RenderSettings(mode=get_mode(mode), size=size, shading=shading, frames=frames, parallel=mode == "shear-warp",
                               tools=() if tool is None else (tool,))
     return float(render_item(item, settings).info["frame_seconds"])
 
@@ -97,7 +98,7 @@ def _frames(rows, item, modes, tools, size, frames, rounds, progress) -> None:
     (each a run of ``frames`` frames of the same turning camera), so that load from outside the benchmark falls on
     all of them alike; the ratios are medians over the rounds of each round's ratio."""
     from ..scene import VolumeItem
-    from ..selection import masked_volume
+    from ..cutaways import masked_volume
 
     variants = [(mode, False) for mode in modes] + [("raymarch", True)]
     steps = max(len(variants) * len(tools), 1)
@@ -142,14 +143,15 @@ def median(values) -> float:
 def _agreement(item, volume, modes, sphere, size) -> list[dict[str, Any]]:
     from algorithms.compare.image_metrics import psnr_foreground
 
+    from ..modes import get_mode
     from ..pipeline.headless import RenderSettings, render_item
     from ..scene import VolumeItem
-    from ..selection import masked_volume
+    from ..cutaways import masked_volume
 
     pre = VolumeItem("pre-masked", volume=masked_volume(volume, [sphere]))
     rows = []
     for mode in modes:
-        settings = dict(mode=mode, size=size, shading=False, parallel=mode == "shear-warp")
+        settings = dict(mode=get_mode(mode), size=size, shading=False, parallel=mode == "shear-warp")
         cut = render_item(item, RenderSettings(tools=(sphere,), **settings)).image
         masked = render_item(pre, RenderSettings(**settings)).image
         plain = render_item(item, RenderSettings(**settings)).image

@@ -29,7 +29,7 @@ import numpy as np
 from algorithms.common.progress import ProgressCallback, report
 
 from .common import machine_info, pyplot, save_figure, time_call, write_csv, write_json
-from .voxelise import _load_average, build_meshes, cube_grid, peak_rss_mib, sphere_mesh, torus_mesh
+from .voxelise import _load_average, cube_grid, peak_rss_mib, sphere_mesh, start_run, torus_mesh
 
 #: Source 002, table 3.1: triangles and seconds for bands of 1, 5 and 10 % at 256^3 (GeForce GT 130, inner loop).
 SOURCE_TABLE = {"skull 6.6k": ("schädel (skull)", 6621, (3.83, 5.4, 6.7)),
@@ -218,13 +218,7 @@ def _csg_rows(size, repeats) -> list[dict[str, Any]]:
 
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:
     """Run every part (see the module notes); write CSV files, a plot and JSON to ``out_dir``."""
-    from ..vtk_setup import configure_vtk
-
-    configure_vtk()
-    load_at_start = _load_average()
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    meshes = build_meshes(out_dir / "meshes")
+    out_dir, load_at_start, meshes = start_run(out_dir)
     report(progress, 0.05)
     # each part is written as soon as it is measured (a long run stopped midway keeps what it measured)
     csg = _csg_rows(128 if quick else 256, 3 if quick else 5)

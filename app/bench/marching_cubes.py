@@ -80,7 +80,7 @@ def _cases(quick: bool):
 
     def colin():
         from app.io import load_volume
-        from app.meshing import default_iso
+        from app.volume import default_iso
 
         volume = load_volume(COLIN27)
         return volume.array, volume.spacing, volume.origin, (round(default_iso(volume), 1),)

@@ -329,19 +329,27 @@ def _grid_rows(quick: bool) -> list[dict[str, Any]]:
     return rows
 
 
-def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:
-    """Time ours and VTK's stencil on every model and size; write CSV files, plots and JSON to ``out_dir``."""
-    from algorithms.fields.voxelise import voxelise
-    from algorithms.references.vtk_fields import StencilPipeline
-
-    from ..vtk_setup import configure_vtk, smp_backend
+def start_run(out_dir) -> tuple[Path, list[float] | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """What the field benchmarks do first: VTK configured, the load average noted, the output folder made and the
+    test meshes built in it. Returns ``(out_dir, load average at the start, meshes)``."""
+    from ..vtk_setup import configure_vtk
 
     configure_vtk()
     load_at_start = _load_average()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    return out_dir, load_at_start, build_meshes(out_dir / "meshes")
+
+
+def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:
+    """Time ours and VTK's stencil on every model and size; write CSV files, plots and JSON to ``out_dir``."""
+    from algorithms.fields.voxelise import voxelise
+    from algorithms.references.vtk_fields import StencilPipeline
+
+    from ..vtk_setup import smp_backend
+
+    out_dir, load_at_start, meshes = start_run(out_dir)
     sizes = QUICK_SIZES if quick else SIZES
-    meshes = build_meshes(out_dir / "meshes")
     models = [model for model in MODELS if model[1] in meshes]
     skipped = [model[0] for model in MODELS if model[1] not in meshes]
     report(progress, 0.05)

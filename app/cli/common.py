@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -101,7 +102,7 @@ def add_cut_arguments(parser: argparse.ArgumentParser) -> None:
 
 def tools_from_args(args) -> list:
     """The tools of ``--cut`` (a CommandError with the problem for a bad specification)."""
-    from ..selection import tools_from_specs
+    from ..cutaways import tools_from_specs
 
     try:
         return tools_from_specs(getattr(args, "cut", None) or [], mode=getattr(args, "cut_mode", "remove"))
@@ -147,13 +148,89 @@ def field_output(args, what: str) -> Path:
     return output
 
 
-def progress_printer(name: str, args):
-    """A progress callback printing ``name: NN.N %`` on a terminal (nothing with ``--json`` or when piped)."""
-    def progress(fraction: float) -> None:
-        if not args.json and sys.stderr.isatty():
-            print(f"\r{name}: {100 * fraction:5.1f} %", end="", file=sys.stderr, flush=True)
+@contextmanager
+def terminal_progress(name: str, *, quiet: bool = False):
+    """A progress callback (fractions 0 to 1) that prints ``name: NN %`` on standard error when it is a terminal;
+    None when ``quiet`` (``--json``) or when standard error is a pipe or a file (scripts and tests get one-line
+    errors only). The line ends with the block."""
+    if quiet or not sys.stderr.isatty():
+        yield None
+        return
+    shown = [-1]
 
-    return progress
+    def show(fraction: float) -> None:
+        percent = int(100 * fraction)
+        if percent != shown[0]:
+            shown[0] = percent
+            print(f"\r{name}: {percent:3d} %", end="", file=sys.stderr, flush=True)
+
+    try:
+        yield show
+    finally:
+        if shown[0] >= 0:
+            print(file=sys.stderr)
+
+
+# --------------------------------------------------------------------------------------------------------------
+# The grid a field is made on (voxelise, distance, csg)
+# --------------------------------------------------------------------------------------------------------------
+def add_grid_arguments(parser: argparse.ArgumentParser, *, padding: int, required: bool = True) -> None:
+    """``--grid N | --like VOLUME | --spacing SX SY SZ`` and ``--padding``: where a field is sampled."""
+    from ..operations.voxelise import DEFAULT_GRID
+
+    where = parser.add_mutually_exclusive_group(required=required)
+    where.add_argument("--grid", type=int, metavar="N",
+                       help=f"N voxels along the mesh's longest side, cubic voxels (e.g. {DEFAULT_GRID})")
+    where.add_argument("--like", metavar="VOLUME",
+                       help="use exactly this volume's grid: dimensions, spacing, origin and direction ('sample' "
+                            "for the bundled CT)")
+    where.add_argument("--spacing", nargs=3, type=float, metavar=("SX", "SY", "SZ"), help="voxel size in mm")
+    parser.add_argument("--padding", type=int, default=padding, metavar="VOXELS",
+                        help=f"voxels of margin around the mesh's bounding box with --grid or --spacing (default "
+                             f"{padding})")
+
+
+def grid_from_args(args) -> dict[str, Any]:
+    """The grid flags as the operations' options (``--like`` travels as an item: :func:`like_item`)."""
+    return {"grid": args.grid, "padding": args.padding,
+            "spacing": " ".join(map(repr, args.spacing)) if args.spacing else None}
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Mesh clean-up
+# --------------------------------------------------------------------------------------------------------------
+def add_cleanup_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags of :class:`app.mesh_cleanup.Cleanup`."""
+    parser.add_argument("--smooth", type=int, default=0, metavar="ITERATIONS",
+                        help="windowed-sinc smoothing iterations")
+    parser.add_argument("--passband", type=float, default=0.1, help="smoothing pass band in (0, 2] (default 0.1)")
+    parser.add_argument("--decimate", type=float, default=0.0, metavar="FRACTION",
+                        help="quadric decimation: fraction of triangles to remove, in [0, 1)")
+    parser.add_argument("--largest", action="store_true", help="keep the largest connected component only")
+    parser.add_argument("--fill-holes", type=float, default=0.0, metavar="MM", help="close holes up to this size (mm)")
+
+
+def cleanup_from_args(args):
+    """The :class:`app.mesh_cleanup.Cleanup` the flags ask for (a CommandError names a value out of range)."""
+    from ..mesh_cleanup import Cleanup
+
+    try:
+        return Cleanup(smooth_iterations=args.smooth, smooth_passband=args.passband, decimate=args.decimate,
+                       largest_component=args.largest, fill_holes_mm=args.fill_holes)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+
+
+def run_operation(name: str, items: dict, options: dict, args):
+    """Run the operation ``name`` (:mod:`app.operations`) on ``items`` with ``options`` already resolved, showing
+    progress on a terminal; its warnings go to standard error, one line each. Returns the result."""
+    from ..operations import get_operation
+
+    with terminal_progress(name, quiet=args.json) as progress:
+        result = get_operation(name).run(items, options, progress=progress)
+    for warning in result.report.get("warnings", []):
+        print(f"voxelscope: warning: {warning}", file=sys.stderr)
+    return result
 
 
 def refuse_existing(path, force: bool) -> Path:

@@ -36,7 +36,7 @@ def run(args) -> int:
     if tools:
         import time
 
-        from ..selection import cropped_volume, describe_tools, masked_volume
+        from ..cutaways import cropped_volume, describe_tools, masked_volume
 
         start = time.perf_counter()
         # keep tools: the region they leave, cropped to its voxels on the volume's grid (3D Slicer's ROI crop);

@@ -9,12 +9,10 @@ meshing separately, and the validity report of a mesh output.
 
 from __future__ import annotations
 
-import sys
 import time
 
-from .common import CommandError, print_json, refuse_existing
-from .common import like_item, progress_printer
-from .distance import add_grid_arguments, grid_options
+from .common import CommandError, like_item, print_json, refuse_existing, run_operation
+from .distance import add_distance_arguments, distance_options
 
 NAME = "csg"
 HELP = "union, intersection or difference of meshes, distance fields and volumes; writes a mesh or the field"
@@ -30,7 +28,7 @@ def add_arguments(parser) -> None:
     how.add_argument("--intersect", dest="operation", action="store_const", const="intersection", help="A and B")
     how.add_argument("--subtract", dest="operation", action="store_const", const="difference",
                      help="A minus B (and minus C ...)")
-    add_grid_arguments(parser, required=False)
+    add_distance_arguments(parser, required=False)
     parser.add_argument("--blend", type=float, default=0.0, metavar="MM",
                         help="blend radius of the smooth variant in mm (default 0: sharp)")
     parser.add_argument("--iso", type=float, help="isovalue of volume inputs in their units (default: 300 HU for CT)")
@@ -77,12 +75,9 @@ def run(args) -> int:
     inputs = [_item(text, args) for text in [args.first, *args.others]]
     items = dict(zip("abcd", inputs))
     items["like"] = like_item(args)
-    operation = get_operation("csg")
-    options = operation.resolve_options({**grid_options(args), "operation": args.operation, "blend": args.blend,
-                                         "iso": args.iso})
-    result = operation.run(items, options, progress=progress_printer("csg", args))
-    if not args.json and sys.stderr.isatty():
-        print(file=sys.stderr)
+    options = get_operation("csg").resolve_options({**distance_options(args), "operation": args.operation,
+                                                    "blend": args.blend, "iso": args.iso})
+    result = run_operation("csg", items, options, args)
     report = dict(result.report)
     report["seconds"] = report.pop("timing")
     if as_mesh:
@@ -108,8 +103,6 @@ def run(args) -> int:
         written = save_volume(result.item.volume, output, overwrite=args.force)
         report["output"] = str(written)
         summary = f"field values {report['value_range_mm'][0]:.4g} to {report['value_range_mm'][1]:.4g} mm"
-    for warning in report["warnings"]:
-        print(f"voxelscope: warning: {warning}", file=sys.stderr)
     if args.json:
         print_json(report)
         return 0

@@ -9,27 +9,17 @@ clamp|propagate] [--inside parity|winding] -o FIELD [--json]`` runs the "distanc
 
 from __future__ import annotations
 
-import sys
-
-from .common import field_output, like_item, mesh_item, print_json, progress_printer
+from .common import (add_grid_arguments, field_output, grid_from_args, like_item, mesh_item, print_json,
+                     run_operation)
 
 NAME = "distance"
 HELP = "a mesh's signed distance field (mm, negative inside), exact in a band, written as NIfTI/NRRD/MHA/VTI"
 ORDER = 26
 
 
-def add_grid_arguments(parser, *, required: bool = True) -> None:
-    from ..operations.voxelise import DEFAULT_GRID
-
-    where = parser.add_mutually_exclusive_group(required=required)
-    where.add_argument("--grid", type=int, metavar="N",
-                       help=f"N voxels along the longest side, cubic voxels (e.g. {DEFAULT_GRID})")
-    where.add_argument("--like", metavar="VOLUME",
-                       help="use exactly this volume's grid: dimensions, spacing, origin and direction ('sample' "
-                            "for the bundled CT)")
-    where.add_argument("--spacing", nargs=3, type=float, metavar=("SX", "SY", "SZ"), help="voxel size in mm")
-    parser.add_argument("--padding", type=int, default=4, metavar="VOXELS",
-                        help="voxels of margin around the bounding box with --grid or --spacing (default 4)")
+def add_distance_arguments(parser, *, required: bool = True) -> None:
+    """The grid flags and the distance field's own (band, outside, inside); shared with ``voxelscope csg``."""
+    add_grid_arguments(parser, padding=4, required=required)
     parser.add_argument("--band", default="10%", metavar="D|P%",
                         help="width of the exact band: mm (e.g. 3) or per cent of the mesh's height (e.g. 5%%; "
                              "default 10%%)")
@@ -42,15 +32,14 @@ def add_grid_arguments(parser, *, required: bool = True) -> None:
 
 def add_arguments(parser) -> None:
     parser.add_argument("mesh", help="surface mesh: STL, OBJ, PLY, VTP or OFF (also gzipped), LPS mm")
-    add_grid_arguments(parser)
+    add_distance_arguments(parser)
     parser.add_argument("-o", "--output", required=True, help="field file: .nii.gz, .nii, .nrrd, .mha or .vti")
     parser.add_argument("--force", action="store_true", help="replace an existing output file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
-def grid_options(args) -> dict:
-    return {"grid": args.grid, "padding": args.padding, "band": args.band, "outside": args.outside,
-            "inside": args.inside, "spacing": " ".join(map(repr, args.spacing)) if args.spacing else None}
+def distance_options(args) -> dict:
+    return {**grid_from_args(args), "band": args.band, "outside": args.outside, "inside": args.inside}
 
 
 def run(args) -> int:
@@ -59,16 +48,10 @@ def run(args) -> int:
 
     output = field_output(args, "a distance field")
     items = {"mesh": mesh_item(args.mesh, "distance"), "like": like_item(args)}
-    operation = get_operation("distance")
-    options = operation.resolve_options(grid_options(args))
-    result = operation.run(items, options, progress=progress_printer("distance", args))
-    if not args.json and sys.stderr.isatty():
-        print(file=sys.stderr)
+    result = run_operation("distance", items, get_operation("distance").resolve_options(distance_options(args)), args)
     written = save_volume(result.item.volume, output, overwrite=args.force)
     report = {**result.report, "seconds": result.report["timing"], "output": str(written)}
     report.pop("timing")
-    for warning in report["warnings"]:
-        print(f"voxelscope: warning: {warning}", file=sys.stderr)
     if args.json:
         print_json(report)
         return 0

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from .common import (CommandError, add_cut_arguments, add_input_arguments, add_mode_option_flags, load_volume_argument,
-                     mode_options_from_args, print_json, tools_from_args)
+from .common import (CommandError, add_cleanup_arguments, add_cut_arguments, add_input_arguments, add_mode_option_flags,
+                     cleanup_from_args, load_volume_argument, mode_options_from_args, print_json, terminal_progress,
+                     tools_from_args)
 
 NAME = "mesh"
 HELP = "extract a surface and write STL, PLY, OBJ or VTP (with a JSON sidecar)"
@@ -24,12 +25,7 @@ def add_arguments(parser) -> None:
                              "default 1")
     parser.add_argument("--coordinates", default="LPS", type=str.upper, choices=("LPS", "RAS"),
                         help="patient coordinate system of the written points (default LPS)")
-    parser.add_argument("--smooth", type=int, default=0, metavar="ITERATIONS", help="windowed-sinc smoothing iterations")
-    parser.add_argument("--passband", type=float, default=0.1, help="smoothing pass band in (0, 2) (default 0.1)")
-    parser.add_argument("--decimate", type=float, default=0.0, metavar="FRACTION",
-                        help="quadric decimation: fraction of triangles to remove, in [0, 1)")
-    parser.add_argument("--largest", action="store_true", help="keep the largest connected component only")
-    parser.add_argument("--fill-holes", type=float, default=0.0, metavar="MM", help="close holes up to this size (mm)")
+    add_cleanup_arguments(parser)
     parser.add_argument("--close-edges", action="store_true",
                         help="cap the surface where it leaves the volume (within one voxel outside the data)")
     parser.add_argument("--force", action="store_true",
@@ -53,76 +49,51 @@ def add_arguments(parser) -> None:
     add_mode_option_flags(parser, [get_mode(name) for name in surface_modes])
 
 
-def _progress(label: str):
-    """A progress line on standard error when it is a terminal (pipes and tests get one-line errors only)."""
-    import sys
-
-    if not sys.stderr.isatty():
-        return None
-    shown = [-1]
-
-    def show(fraction: float) -> None:
-        percent = int(100 * fraction)
-        if percent != shown[0]:
-            shown[0] = percent
-            print(f"\r{label}: {percent:3d} %", end="" if percent < 100 else "\n", file=sys.stderr, flush=True)
-
-    return show
-
-
 def run(args) -> int:
     from algorithms.common.progress import scaled
 
     from ..mesh_files import check_mesh_targets
-    from ..meshing import default_iso, surface_for_export, write_export
+    from ..meshing import surface_for_export, write_export
+    from ..volume import default_iso
     from ..modes import get_mode
 
     options = get_mode(args.method).resolve_options(mode_options_from_args(args))
     tools = tools_from_args(args)  # bad specifications are refused before loading anything
+    cleanup = cleanup_from_args(args)
     if args.workers is not None or args.scheduler is not None:
-        from ..distributed.command import run_chunked_mesh
+        from ._mesh_chunked import run_chunked_mesh  # dask and distributed: imported only when asked for
 
-        return run_chunked_mesh(args, tools, progress=_progress(f"mesh {args.output}"))
+        with terminal_progress(f"mesh {args.output}", quiet=args.json) as progress:
+            return run_chunked_mesh(args, tools, cleanup, progress=progress)
     volume = load_volume_argument(args)
     if args.labels is not None:
         if tools:
             raise CommandError("--cut applies to one surface, not to --labels; cut the label volume first with "
                                "'voxelscope convert --cut'")
-        from ..labels import run_mesh_command
-
-        return run_mesh_command(volume, args, options)
+        return _label_meshes(volume, args, options, cleanup)
     iso = args.iso if args.iso is not None else default_iso(volume)
     cut = None
     if tools:
         import time
 
         from ..meshing import check_isovalue
-        from ..selection import cut_for_surface, describe_tools
+        from ..cutaways import cut_for_surface, describe_tools
 
         check_isovalue(volume, iso)  # on the data, before the cut lowers values
         start = time.perf_counter()
         # The surface of the data minus the tools, capped at the cut (CSG difference, source 002, 3.3.1).
         volume = cut_for_surface(volume, tools, iso, evaluation=args.cut_eval)
         cut = describe_tools(tools, args.cut_eval, time.perf_counter() - start)
-    cleanup = {}
-    if args.smooth:
-        cleanup["smooth_iterations"] = args.smooth
-        cleanup["smooth_passband"] = args.passband
-    if args.decimate:
-        cleanup["decimate"] = args.decimate
-    if args.largest:
-        cleanup["largest_component"] = True
-    if args.fill_holes:
-        cleanup["fill_holes_mm"] = args.fill_holes
     output = check_mesh_targets(args.output, overwrite=args.force)  # before any work
-    progress = _progress(f"mesh {output.name}")
-    surface = surface_for_export(volume, method=args.method, iso=iso, stride=args.stride, options=options,
-                                 coordinates=args.coordinates, close_edges=args.close_edges, allow_large=args.force,
-                                 progress=scaled(progress, 0.0, 0.4))
-    units = volume.units_label
-    del volume  # the samples are not needed any more: clean-up and validation get their memory
-    export = write_export(surface, output, cleanup=cleanup, overwrite=args.force, progress=scaled(progress, 0.4, 1.0))
-    del surface
+    with terminal_progress(f"mesh {output.name}", quiet=args.json) as progress:
+        surface = surface_for_export(volume, method=args.method, iso=iso, stride=args.stride, options=options,
+                                     coordinates=args.coordinates, close_edges=args.close_edges,
+                                     allow_large=args.force, progress=scaled(progress, 0.0, 0.4))
+        units = volume.units_label
+        del volume  # the samples are not needed any more: clean-up and validation get their memory
+        export = write_export(surface, output, cleanup=cleanup, overwrite=args.force,
+                              progress=scaled(progress, 0.4, 1.0))
+        del surface
     stats = export.stats
     validity = export.validity or {}
     report = {
@@ -154,4 +125,28 @@ def run(args) -> int:
           f"{report['bytes']} bytes in {report['seconds']:.3f} s at {iso:g} {units}")
     print(f"Wrote {report['output']} ({report['written']['triangles']} triangles, {report['coordinates']} mm) "
           f"and {report['sidecar']}")
+    return 0
+
+
+def _label_meshes(volume, args, options: dict, cleanup) -> int:
+    """``voxelscope mesh LABELS --labels all|1,5,9 -o DIR [--json]``: one closed mesh per label, listed in
+    ``DIR/labels.json``."""
+    from pathlib import Path
+
+    from ..labels import export_label_meshes, table_for
+
+    table = table_for(volume, args.color_table)
+    with terminal_progress(f"mesh {args.output}", quiet=args.json) as progress:
+        listing = export_label_meshes(volume, args.output, labels=args.labels, table=table, method=args.method,
+                                      suffix="." + args.format, coordinates=args.coordinates, cleanup=cleanup,
+                                      options=options, overwrite=args.force, progress=progress)
+    listing["folder"] = str(Path(args.output).expanduser())
+    if args.json:
+        print_json(listing)
+        return 0
+    for mesh in listing["meshes"]:
+        print(f"{mesh['label']:>5}  {mesh['name'][:40]:<40} {mesh['voxel_volume_mm3']:>12.1f} mm^3 of voxels, "
+              f"mesh {mesh['mesh_volume_mm3']:.1f} mm^3, watertight={mesh['watertight']}  {mesh['file']}")
+    print(f"Wrote {len(listing['meshes'])} meshes and labels.json to {listing['folder']} "
+          f"({listing['coordinate_system']} mm, {listing['seconds']:.1f} s)")
     return 0

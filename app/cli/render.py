@@ -51,7 +51,8 @@ def _check_surface_isovalue(mode, item, iso) -> None:
     volume = getattr(item, "volume", None)
     if not mode.capabilities.uses_iso or volume is None:
         return
-    from ..meshing import check_isovalue, default_iso
+    from ..meshing import check_isovalue
+    from ..volume import default_iso
 
     if iso is None:
         iso = item.iso if hasattr(item, "role") else default_iso(volume)
@@ -93,8 +94,13 @@ def run(args) -> int:
     tools = tools_from_args(args)  # bad specifications are refused before loading anything
     item = load_item(args)
     _check_surface_isovalue(mode, item, args.iso)
+    if tools and not mode.capabilities.accepts_selection:
+        from ..modes import modes
+
+        raise ValueError(f"mode {mode.name!r} does not honour cut-away tools (--cut); modes that do: "
+                         + ", ".join(m.name for m in modes() if m.capabilities.accepts_selection))
     settings = RenderSettings(
-        mode=args.mode, options={k: v for k, v in options.items() if v is not None and k in
+        mode=mode, options={k: v for k, v in options.items() if v is not None and k in
                                  mode_options_from_args(args)},
         preset=args.preset, size=tuple(args.size), view=args.view, azimuth=args.azimuth, elevation=args.elevation,
         parallel=args.parallel, shading=args.shading, background=parse_background(args.background),

@@ -8,9 +8,8 @@ voxel centre where it was.
 
 from __future__ import annotations
 
-import sys
-
-from .common import field_output, like_item, mesh_item, print_json, progress_printer
+from .common import (add_grid_arguments, field_output, grid_from_args, like_item, mesh_item, print_json,
+                     run_operation)
 
 NAME = "voxelise"
 HELP = "turn a closed surface mesh into a mask volume (parity or winding number), written as NIfTI/NRRD/MHA/VTI"
@@ -18,18 +17,8 @@ ORDER = 25
 
 
 def add_arguments(parser) -> None:
-    from ..operations.voxelise import DEFAULT_GRID
-
     parser.add_argument("mesh", help="surface mesh: STL, OBJ, PLY, VTP or OFF (also gzipped), LPS mm")
-    where = parser.add_mutually_exclusive_group(required=True)
-    where.add_argument("--grid", type=int, metavar="N",
-                       help=f"N voxels along the mesh's longest side, cubic voxels (e.g. {DEFAULT_GRID})")
-    where.add_argument("--like", metavar="VOLUME",
-                       help="use exactly this volume's grid: dimensions, spacing, origin and direction ('sample' "
-                            "for the bundled CT)")
-    where.add_argument("--spacing", nargs=3, type=float, metavar=("SX", "SY", "SZ"), help="voxel size in mm")
-    parser.add_argument("--padding", type=int, default=2, metavar="VOXELS",
-                        help="voxels of margin around the mesh's bounding box with --grid or --spacing (default 2)")
+    add_grid_arguments(parser, padding=2)
     parser.add_argument("--inside", choices=("parity", "winding"), default="parity",
                         help="inside rule: parity of row crossings (default; closed meshes) or the generalised "
                              "winding number (meshes with holes or self-intersections)")
@@ -45,19 +34,10 @@ def run(args) -> int:
     output = field_output(args, "a mask")
     mesh = mesh_item(args.mesh, "voxelise")
     items = {"mesh": mesh, "like": like_item(args)}
-    operation = get_operation("voxelise")
-    options = operation.resolve_options({
-        "grid": args.grid, "padding": args.padding, "inside": args.inside,
-        "spacing": " ".join(map(repr, args.spacing)) if args.spacing else None,
-    })
-
-    result = operation.run(items, options, progress=progress_printer("voxelise", args))
-    if not args.json and sys.stderr.isatty():
-        print(file=sys.stderr)
+    options = get_operation("voxelise").resolve_options({**grid_from_args(args), "inside": args.inside})
+    result = run_operation("voxelise", items, options, args)
     written = save_volume(result.item.volume, output, overwrite=args.force)
     report = {**result.report, "output": str(written)}
-    for warning in report["warnings"]:
-        print(f"voxelscope: warning: {warning}", file=sys.stderr)
     if args.json:
         print_json(report)
         return 0

@@ -1,9 +1,11 @@
-"""Surface modes: a volume (or a field) at an isovalue -> a triangle surface, by a VTK filter.
+"""Surface modes: a volume (or a field) at an isovalue -> a triangle surface, by a VTK filter, and the view content
+that shows it.
 
 Ours: marching cubes with Bourke's tables (source 001; Lorensen & Cline 1987), the visible voxel faces and the
 tower strips of source 000 and their hybrid. VTK's: ``vtkFlyingEdges3D`` and ``vtkMarchingCubes``. Each mode says
 which filter to build; :meth:`SurfaceMode.extract` runs it (image -> filter -> surface in the volume frame), for a
-view, for ``voxelscope mesh`` and for comparisons alike.
+view (:class:`SurfaceContent`), for ``voxelscope mesh`` and for comparisons alike, so the window, the command line
+and the files agree.
 """
 
 from __future__ import annotations
@@ -14,7 +16,9 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..pipeline.surfaces import SurfaceContent, SurfaceResult, polydata_stats
+from ..pipeline.content import IGNORE, REBUILD, ViewInputs
+from ..pipeline.lit_surfaces import LitContent, SurfaceResult, format_bytes, polydata_stats
+from ..pipeline.props import surface_actor, surface_color
 from . import register_mode
 from .base import Capabilities, Mode, Option
 
@@ -38,7 +42,7 @@ class SurfaceMode(Mode):
     #: The filter never puts two points at one position (exports then skip merging coincident points).
     unique_points: bool = False
 
-    def create_content(self, options: Mapping[str, Any]) -> SurfaceContent:
+    def create_content(self, options: Mapping[str, Any]) -> "SurfaceContent":
         return SurfaceContent(self, options)
 
     def extract(self, item, iso: float, *, stride: int = 1, options: Mapping[str, Any] | None = None,
@@ -83,6 +87,63 @@ class SurfaceMode(Mode):
             if self.bound(shape) <= limit:
                 return None
         return int(self.count(array, float(iso), int(stride), progress))
+
+
+class SurfaceContent(LitContent):
+    """An isosurface of the item at the view's isovalue, extracted by the mode's filter."""
+
+    result: SurfaceResult | None = None
+
+    def prepare(self, inputs: ViewInputs, *, preview: bool = False, progress=None) -> SurfaceResult:
+        stride = self.mode.capabilities.preview_stride if preview else 0
+        tools = inputs.visible_tools() if self.mode.capabilities.accepts_selection else []
+        if not tools:
+            return self.mode.extract(inputs.item, inputs.iso, stride=max(stride, 1), options=self.options,
+                                     progress=progress)
+        # The surface of the data minus the tools, capped at the cut (the CSG difference of source 002, 3.3.1).
+        import time
+
+        from algorithms.common.progress import scaled
+
+        from ..cutaways import cut_for_surface
+
+        start = time.perf_counter()
+        source = cut_for_surface(inputs.volume, tools, inputs.iso, evaluation=inputs.cut_evaluation,
+                                 progress=scaled(progress, 0.0, 0.3))
+        cut_seconds = time.perf_counter() - start
+        result = self.mode.extract(source, inputs.iso, stride=max(stride, 1), options=self.options,
+                                   progress=scaled(progress, 0.3, 1.0))
+        result.stats["cut_seconds"] = cut_seconds
+        result.stats["tools"] = len(tools)
+        return result
+
+    def install(self, renderer, inputs: ViewInputs, prepared: SurfaceResult) -> None:
+        self.result = prepared
+        self.stats = dict(prepared.stats)
+        volume = inputs.volume
+        lo, hi = volume.value_range
+        self._iso, self._units, self._range = inputs.iso, volume.units_label, f"{lo:g} to {hi:g} {volume.units_label}"
+        units = getattr(volume, "units", "")
+        actor = surface_actor(prepared.polydata, inputs.item.local_to_world, color=surface_color(units, inputs.iso),
+                              flat=self.mode.flat_shading)
+        self._replace_props(renderer, [actor], detail_mm=max(volume.spacing))
+
+    def react(self, change: str, renderer, inputs: ViewInputs) -> str:
+        if change == "selection":
+            return REBUILD if self.mode.capabilities.accepts_selection else IGNORE
+        return REBUILD if change == "iso" else IGNORE
+
+    def status(self) -> str:
+        s = self.stats
+        if not s:
+            return ""
+        if not s["triangles"]:
+            return f"no surface at {self._iso:g} {self._units} (the values run from {self._range})"
+        return (f"{s['points']:,} points, {s['triangles']:,} triangles, {s['strips']:,} strips, "
+                f"{format_bytes(s['bytes'])}, built in {s['seconds']:.2f} s")
+
+    def surface(self) -> SurfaceResult | None:
+        return self.result
 
 
 def shared_image(volume):

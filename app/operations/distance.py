@@ -24,10 +24,12 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from algorithms.common.progress import ProgressCallback
+
 from ..options import Option
 from . import register_operation
 from .base import Input, Operation, OperationResult
-from .voxelise import DEFAULT_GRID, parse_spacing
+from .voxelise import DEFAULT_GRID, checked_mesh, parse_spacing
 
 #: Bytes per voxel while a distance field is made: values, nearest triangle, mask, and the written copy.
 BYTES_PER_VOXEL = 16
@@ -62,35 +64,13 @@ def _check_memory(grid, what: str) -> None:
                          f"only {gib(memory_available())} is free; use a smaller --grid or a coarser --spacing")
 
 
-def _mesh_arrays(mesh_item, rule: str):
-    from algorithms.common.vtk_bridge import polydata_arrays
-
-    from ..io.meshes import Mesh, describe_mesh
-    from .voxelise import check_mesh
-
-    try:
-        points, triangles = polydata_arrays(mesh_item.polydata)
-    except ValueError:
-        raise ValueError(f"{mesh_item.name} holds polygons other than triangles; triangulate it first") from None
-    points = np.asarray(points, dtype=np.float64)
-    if len(triangles) == 0:
-        raise ValueError(f"{mesh_item.name} has no triangles, so it has no distance field; open a surface mesh")
-    if not np.all(np.isfinite(points)):
-        raise ValueError(f"{mesh_item.name} has points with NaN or infinite coordinates; repair or re-export it")
-    info = describe_mesh(Mesh(mesh_item.polydata, mesh_item.metadata.get("source_path", mesh_item.name),
-                              mesh_item.metadata.get("source_format", "mesh"),
-                              list(mesh_item.metadata.get("warnings", []))))
-    facts, warnings = check_mesh(mesh_item.name, points, triangles, rule, info)
-    return points, triangles, facts, warnings
-
-
 def mesh_distance(mesh_item, grid, *, band: str, outside: str, inside: str, progress=None):
     """A mesh item's signed distance field on ``grid``: ``(DistanceField, report dict)``."""
     from algorithms.fields.distance import signed_distance
 
     from .voxelise import _check_grid
 
-    points, triangles, facts, warnings = _mesh_arrays(mesh_item, inside)
+    points, triangles, _, facts, warnings = checked_mesh(mesh_item, inside, "so it has no distance field")
     warnings = warnings + _check_grid(mesh_item.name, grid, points, None)
     _check_memory(grid, f"the distance field of {mesh_item.name}")
     band_mm = parse_band(band, points, grid)
@@ -140,7 +120,7 @@ def _field_values(item, grid, options, progress) -> tuple[np.ndarray, dict]:
     """An input of "csg" as a distance-like field on ``grid`` (mm, negative inside) and what was done to it."""
     from algorithms.fields.csg import isosurface_field
 
-    from ..meshing import default_iso
+    from ..volume import default_iso
     from ..volume import Volume
 
     if item.kind == "mesh":

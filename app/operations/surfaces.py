@@ -15,7 +15,8 @@ class ExtractSurface(Operation):
     """A volume's (or field's) isosurface, extracted by a surface mode, as a mesh item in LPS mm."""
 
     def run(self, items: Mapping[str, Any], options: Mapping[str, Any], *, progress=None) -> OperationResult:
-        from ..meshing import EmptySurfaceError, check_isovalue, default_iso, merge_duplicate_points, to_world
+        from ..meshing import EmptySurfaceError, check_isovalue, merge_duplicate_points, to_world
+        from ..volume import default_iso
         from ..modes import get_mode
         from ..scene import MeshItem
 

@@ -54,7 +54,7 @@ def default_h(volume) -> float:
 
 def _inside_and_iso(source, iso):
     """Which side is inside, and the isovalue: distance fields are negative inside (0 mm), masks 0.5."""
-    from ..meshing import default_iso
+    from ..volume import default_iso
 
     volume = source.volume if hasattr(source, "volume") else source
     role = getattr(source, "role", None)

@@ -39,6 +39,30 @@ def parse_spacing(text) -> tuple[float, float, float] | None:
     return tuple(values)
 
 
+def checked_mesh(mesh_item, rule: str, purpose: str) -> tuple[np.ndarray, np.ndarray, dict, dict, list[str]]:
+    """A mesh item's points (float64, LPS mm) and triangles, its description (:func:`app.io.meshes.describe_mesh`),
+    its topology facts and warnings (:func:`check_mesh`); a one-line ValueError for what no field can be made of
+    (``purpose`` ends the sentence: "so there is nothing to voxelise")."""
+    from algorithms.common.vtk_bridge import polydata_arrays
+
+    from ..io.meshes import Mesh, describe_mesh
+
+    try:
+        points, triangles = polydata_arrays(mesh_item.polydata)
+    except ValueError:
+        raise ValueError(f"{mesh_item.name} holds polygons other than triangles; triangulate it first") from None
+    points = np.asarray(points, dtype=np.float64)
+    if len(triangles) == 0:
+        raise ValueError(f"{mesh_item.name} has no triangles, {purpose}; open a surface mesh")
+    if not np.all(np.isfinite(points)):
+        raise ValueError(f"{mesh_item.name} has points with NaN or infinite coordinates; repair or re-export it")
+    info = describe_mesh(Mesh(mesh_item.polydata, mesh_item.metadata.get("source_path", mesh_item.name),
+                              mesh_item.metadata.get("source_format", "mesh"),
+                              list(mesh_item.metadata.get("warnings", []))))
+    facts, warnings = check_mesh(mesh_item.name, points, triangles, rule, info)
+    return points, triangles, info, facts, warnings
+
+
 def check_mesh(name: str, points: np.ndarray, triangles: np.ndarray, rule: str, info: dict) -> tuple[dict, list[str]]:
     """Topology facts of the mesh and the warnings it deserves; ValueError (one line: what is wrong, what to do)
     when ``rule`` cannot give a sensible mask for it. ``info`` is the mesh's :func:`app.io.meshes.describe_mesh`."""
@@ -152,28 +176,17 @@ class Voxelise(Operation):
             raise ValueError("give either --grid N (voxels along the longest side) or --spacing, not both")
 
     def run(self, items: Mapping[str, Any], options: Mapping[str, Any], *, progress=None) -> OperationResult:
-        from algorithms.common.vtk_bridge import polydata_arrays, run_algorithm
+        from algorithms.common.vtk_bridge import run_algorithm
         from algorithms.fields.voxelise import VoxeliseFilter, warm_up
         from vtkmodules.util.numpy_support import vtk_to_numpy
 
-        from ..io.meshes import Mesh, describe_mesh
         from ..scene import FieldItem
         from ..volume import Volume
 
         self.check_inputs(items)
         mesh_item, like = items["mesh"], items.get("like")
         rule = options["inside"]
-        points, triangles = polydata_arrays(mesh_item.polydata)
-        points = np.asarray(points, dtype=np.float64)
-        if len(triangles) == 0:
-            raise ValueError(f"{mesh_item.name} has no triangles, so there is nothing to voxelise; open a surface "
-                             "mesh")
-        if not np.all(np.isfinite(points)):
-            raise ValueError(f"{mesh_item.name} has points with NaN or infinite coordinates; repair or re-export it")
-        mesh_info = describe_mesh(Mesh(mesh_item.polydata, mesh_item.metadata.get("source_path", mesh_item.name),
-                                       mesh_item.metadata.get("source_format", "mesh"),
-                                       list(mesh_item.metadata.get("warnings", []))))
-        facts, warnings = check_mesh(mesh_item.name, points, triangles, rule, mesh_info)
+        points, triangles, mesh_info, facts, warnings = checked_mesh(mesh_item, rule, "so there is nothing to voxelise")
         grid = output_grid(mesh_item.bounds, like, grid=options["grid"], spacing=options["spacing"],
                            padding=options["padding"])
         warnings += _check_grid(mesh_item.name, grid, points, like.name if like is not None else None)

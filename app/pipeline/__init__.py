@@ -1,8 +1,11 @@
 """The one view pipeline: what the command line and every window view use to show a scene item in a render mode.
 
-- :class:`ViewPipeline` (``view.py``): one view's VTK pipeline, kept up to date as its inputs change;
-- contents (``content.py`` and ``surfaces.py``, ``volumes.py``, ``images.py``, ``comparisons.py``): what a mode
-  shows, made by :meth:`app.modes.base.Mode.create_content`;
+- :class:`ViewPipeline` (``view.py``): one view's VTK pipeline, kept up to date as its inputs change; it takes
+  :class:`app.modes.base.Mode` objects (the registry in :mod:`app.modes` finds them by name) and never imports the
+  modes: each mode family (:mod:`app.modes.surfaces`, ``.renderers``, ``.volume_mappers``, ``.comparisons``,
+  ``.tetrahedra``, ``.meshes``) holds its registration and its view content in one module;
+- what contents share: ``content.py`` (the base and the immutable :class:`ViewInputs`), ``lit_surfaces.py`` (a
+  surface result and the lighting of every surface), ``frames.py`` (a renderer filter's frame over a background);
 - ``jobs.py``: where long work runs (the host's runner); ``cameras.py``: cameras in patient coordinates;
   ``props.py``: the VTK props every view uses; ``offscreen.py``: off-screen scenes and PNG files;
   ``headless.py``: ``voxelscope render``; ``timing.py``: frame-time statistics.

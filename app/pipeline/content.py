@@ -12,7 +12,7 @@ shows that mode with those options. The pipeline (:class:`app.pipeline.view.View
 4. :meth:`ViewContent.react` when a shared input changes (isovalue, transfer function, sample distance): the content
    says whether it must be prepared again, redrawn, or re-framed.
 
-Subclasses live by what they show: :mod:`.surfaces`, :mod:`.volumes`, :mod:`.images`, :mod:`.comparisons`.
+Subclasses live with their modes, one module per mode family in :mod:`app.modes`.
 """
 
 from __future__ import annotations
@@ -33,9 +33,10 @@ if TYPE_CHECKING:  # pragma: no cover
 REBUILD, REDRAW, REFRAME, IGNORE = "rebuild", "redraw", "reframe", "ignore"
 
 
-@dataclass
+@dataclass(frozen=True)
 class ViewInputs:
-    """Everything a view's content is made from besides the mode's own options.
+    """Everything a view's content is made from besides the mode's own options; immutable, so a job in a worker
+    keeps the inputs it started from while the view moves on to new ones (``dataclasses.replace`` makes those).
 
     ``item`` is the scene item on show (a volume, a field, a mesh...). ``iso`` is in the item's value units,
     ``sample_distance`` in mm (None: half the smallest voxel spacing), ``background`` an RGB triple in [0, 1].
@@ -68,7 +69,7 @@ class ViewInputs:
         (no tools, or an item without a volume)."""
         if not self.tools or getattr(self.item, "volume", None) is None:
             return None
-        from ..selection import tool_set_for
+        from ..cutaways import tool_set_for
 
         return tool_set_for(self.volume, self.tools, evaluation=self.cut_evaluation,
                             moving=self.tools_moving if moving is None else moving,
@@ -154,7 +155,7 @@ class ViewContent(ABC):
         return ""
 
     def surface(self):
-        """The full-resolution surface on show (a :class:`~app.pipeline.surfaces.SurfaceResult`: ``vtkPolyData`` in
+        """The full-resolution surface on show (a :class:`~app.pipeline.lit_surfaces.SurfaceResult`: ``vtkPolyData`` in
         the volume frame and its statistics), or None."""
         return None
 

@@ -15,7 +15,7 @@ as background reads back, without the ~80 MiB of a Mesa context and the ~12 MiB 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Sequence
 
 import numpy as np
@@ -35,11 +35,12 @@ from .view import ViewPipeline
 class RenderSettings:
     """What to render and how; the defaults are the command line's.
 
-    ``options`` are the mode's own (see ``voxelscope modes``); ``sample_distance`` (mm) applies to ray casting (ours
-    and VTK's); ``iso`` (the volume's units) to surfaces.
+    ``mode`` is a :class:`~app.modes.base.Mode` (``app.modes.get_mode`` finds one by name); ``options`` are the
+    mode's own (see ``voxelscope modes``); ``sample_distance`` (mm) applies to ray casting (ours and VTK's); ``iso``
+    (the volume's units) to surfaces.
     """
 
-    mode: str
+    mode: Any
     options: dict[str, Any] = field(default_factory=dict)
     preset: str | None = None
     size: tuple[int, int] = DEFAULT_SIZE
@@ -82,7 +83,7 @@ def view_inputs(item, *, iso=None, preset=None, shading=None, sample_distance=No
     if iso is None:
         iso = getattr(item, "iso", None) if volume is not None and hasattr(item, "role") else None
         if iso is None and volume is not None and uses_iso:
-            from ..meshing import default_iso
+            from ..volume import default_iso
 
             iso = default_iso(volume)
     return ViewInputs(item, float(iso if iso is not None else 0.0), function, sample_distance, tuple(background),
@@ -91,9 +92,7 @@ def view_inputs(item, *, iso=None, preset=None, shading=None, sample_distance=No
 
 def render_item(item, settings: RenderSettings, *, progress: ProgressCallback = None) -> RenderReport:
     """Render a scene item off-screen as ``settings`` say; time the set-up and, with ``frames``, a turning camera."""
-    from ..modes import get_mode
-
-    mode = get_mode(settings.mode)
+    mode = settings.mode
     width, height = (int(v) for v in settings.size)
     if width < 8 or height < 8 or width > 8192 or height > 8192:
         raise ValueError(f"image size must be between 8 and 8192 pixels per side, got {width} x {height}")
@@ -108,12 +107,11 @@ def render_item(item, settings: RenderSettings, *, progress: ProgressCallback = 
                          uses_iso=not frame_only or mode.capabilities.uses_iso)
     if settings.tools:
         if not mode.capabilities.accepts_selection:
-            raise ValueError(f"mode {mode.name!r} does not honour cut-away tools (--cut); modes that do: "
-                             + ", ".join(m.name for m in _selection_modes()))
+            raise ValueError(f"mode {mode.name!r} does not honour cut-away tools (--cut); see 'voxelscope modes' "
+                             "for those that do")
         if getattr(item, "volume", None) is None:
             raise ValueError(f"{item.name} is a {item.kind}; cut-away tools (--cut) apply to volumes")
-        inputs.tools = tuple(settings.tools)
-        inputs.cut_evaluation = settings.cut_evaluation
+        inputs = replace(inputs, tools=tuple(settings.tools), cut_evaluation=settings.cut_evaluation)
     camera = settings.camera or default_camera(item, view=settings.view, azimuth=settings.azimuth,
                                                elevation=settings.elevation, parallel=settings.parallel,
                                                aspect=width / height)
@@ -179,17 +177,11 @@ def picture_is_frame(mode, options) -> bool:
     return bool(getattr(type(mode.create_content(options)), "picture_is_frame", False))
 
 
-def _selection_modes() -> list:
-    from ..modes import modes
-
-    return [m for m in modes() if m.capabilities.accepts_selection]
-
-
 def _cut_report(settings: RenderSettings, pipeline, scene, content) -> dict[str, Any]:
     """The tools used and the seconds the cut added: building the cut volume (surfaces) or the mapper's mask or
     masked copy (VTK's mappers), or, for our renderers (evaluated per sample), the frame with the tools minus a frame
     of the same camera without them (both rendered once more here, the cut one last, so the picture is unchanged)."""
-    from ..selection import describe_tools
+    from ..cutaways import describe_tools
 
     report = describe_tools(settings.tools, settings.cut_evaluation)
     stats = content.stats if content is not None else {}

@@ -22,12 +22,13 @@ from __future__ import annotations
 
 import time
 from collections import deque
+from dataclasses import replace
 from typing import Any, Callable, Mapping
 
 from algorithms.common.camera import Camera
 
 from ..events import Signal
-from .content import IGNORE, REBUILD, REDRAW, REFRAME, Frame, ViewContent, ViewInputs
+from .content import REBUILD, REDRAW, REFRAME, Frame, ViewContent, ViewInputs
 from .jobs import JobRunner
 
 PREVIEW_SCALE = 3  # software renderers draw 1/3 of the pixels per side while the camera moves
@@ -72,22 +73,17 @@ class ViewPipeline:
 
     # -- inputs -------------------------------------------------------------------------------------------------------
     def set_inputs(self, inputs: ViewInputs, mode=None, options: Mapping[str, Any] | None = None) -> None:
-        """Show a new item (with its isovalue, transfer function, ...), optionally in another mode (a name or a
-        :class:`~app.modes.base.Mode`) with ``options``: the content is built again, once."""
+        """Show a new item (with its isovalue, transfer function, ...), optionally in another mode (a
+        :class:`~app.modes.base.Mode`; the registry resolves names) with ``options``: the content is built again,
+        once."""
         if mode is not None:
-            from ..modes import get_mode
-
-            mode = get_mode(mode) if isinstance(mode, str) else mode
             self.options = mode.resolve_options(options)
             self.mode = mode
         self.inputs = inputs
         self._rebuild_content()
 
     def set_mode(self, mode, options: Mapping[str, Any] | None = None) -> None:
-        """Show ``mode`` (a name or a :class:`~app.modes.base.Mode`) with ``options`` (validated by the mode)."""
-        from ..modes import get_mode
-
-        mode = get_mode(mode) if isinstance(mode, str) else mode
+        """Show ``mode`` (a :class:`~app.modes.base.Mode`) with ``options`` (validated by the mode)."""
         self.options = mode.resolve_options(options)
         self.mode = mode
         self._rebuild_content()
@@ -105,13 +101,13 @@ class ViewPipeline:
         """New isovalue; ``preview`` while it is being dragged (surfaces then use the mode's coarse path)."""
         if self.inputs is None:
             return
-        self.inputs.iso = float(iso)
+        self.inputs = replace(self.inputs, iso=float(iso))
         self._input_changed("iso", preview=preview)
 
     def set_transfer_function(self, function) -> None:
         if self.inputs is None:
             return
-        self.inputs.transfer_function = function
+        self.inputs = replace(self.inputs, transfer_function=function)
         self._input_changed("transfer_function")
 
     def set_sample_distance(self, millimetres: float | None) -> None:
@@ -119,7 +115,7 @@ class ViewPipeline:
             return
         if millimetres is not None and not millimetres > 0:
             raise ValueError(f"the sample distance must be a positive number of mm, got {millimetres}")
-        self.inputs.sample_distance = millimetres
+        self.inputs = replace(self.inputs, sample_distance=millimetres)
         self._input_changed("sample_distance")
 
     def set_tools(self, tools, evaluation: str = "binary", *, moving: bool = False) -> None:
@@ -128,9 +124,7 @@ class ViewPipeline:
         final call with ``moving=False`` refines."""
         if self.inputs is None:
             return
-        self.inputs.tools = tuple(tools)
-        self.inputs.cut_evaluation = evaluation
-        self.inputs.tools_moving = bool(moving)
+        self.inputs = replace(self.inputs, tools=tuple(tools), cut_evaluation=evaluation, tools_moving=bool(moving))
         self._input_changed("selection", preview=moving)
 
     def set_overlays(self, items) -> None:
@@ -149,7 +143,7 @@ class ViewPipeline:
     def set_background(self, color: tuple[float, float, float]) -> None:
         self.renderer.SetBackground(*color)
         if self.inputs is not None:
-            self.inputs.background = tuple(color)
+            self.inputs = replace(self.inputs, background=tuple(color))
             self._input_changed("background")
 
     # -- camera and viewport ------------------------------------------------------------------------------------------

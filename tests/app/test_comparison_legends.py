@@ -18,8 +18,9 @@ import pytest
 from vtkmodules.util import numpy_support
 
 from app.datasets import ct_head_phantom
-from app.pipeline.comparisons import (DIFFERENCE_TOLERANCE, ImageDifferenceContent, SurfaceDistanceContent,
-                                      distance_tolerance, image_difference, surface_distance)
+from app.modes import get_mode
+from app.modes.comparisons import (DIFFERENCE_TOLERANCE, ImageDifferenceContent, SurfaceDistanceContent,
+                                   distance_tolerance, image_difference, surface_distance)
 from app.pipeline.headless import RenderSettings, render_item, view_inputs
 from app.pipeline.props import LEGEND_FONT_SIZE, difference_colors, distance_actor, distance_colors
 from app.scene import VolumeItem
@@ -35,7 +36,7 @@ def bar_range(bar) -> tuple[float, float]:
 
 
 def test_distance_scale_comes_from_the_tolerance_not_the_data(ct_item):
-    result = surface_distance(ct_item, "marching-cubes", "flying-edges", 300.0)
+    result = surface_distance(ct_item, get_mode("marching-cubes"), get_mode("flying-edges"), 300.0)
     distances = numpy_support.vtk_to_numpy(result.polydata.GetPointData().GetArray("distance_mm"))
     assert result.stats["hausdorff_mm"] < 1e-3  # rounding noise only
     tolerance = distance_tolerance({}, ct_item.volume)
@@ -55,7 +56,7 @@ def test_distance_scale_comes_from_the_tolerance_not_the_data(ct_item):
 
 
 def test_colour_bars_are_readable(ct_item):
-    result = surface_distance(ct_item, "marching-cubes", "flying-edges", 300.0)
+    result = surface_distance(ct_item, get_mode("marching-cubes"), get_mode("flying-edges"), 300.0)
     _, bar = distance_actor(result.polydata, ct_item.local_to_world, "distance_mm", tolerance_mm=0.094)
     assert bar.GetLabelFormat() == "%.3g" and bar.GetNumberOfLabels() == 5
     assert bar.GetUnconstrainedFontSize()
@@ -67,10 +68,10 @@ def test_colour_bars_are_readable(ct_item):
 
 
 def test_distance_view_through_the_pipeline_uses_the_option(ct_item):
-    report = render_item(ct_item, RenderSettings(mode="marching-cubes-vs-flying-edges", size=(96, 96),
+    report = render_item(ct_item, RenderSettings(mode=get_mode("marching-cubes-vs-flying-edges"), size=(96, 96),
                                                  options={"tolerance": 0.5}))
     assert report.info["surface"]["tolerance_mm"] == 0.5
-    default = render_item(ct_item, RenderSettings(mode="marching-cubes-vs-flying-edges", size=(96, 96)))
+    default = render_item(ct_item, RenderSettings(mode=get_mode("marching-cubes-vs-flying-edges"), size=(96, 96)))
     assert default.info["surface"]["tolerance_mm"] == pytest.approx(0.24)
 
 
@@ -92,7 +93,6 @@ def test_image_difference_scale_comes_from_the_tolerance():
 
 
 def test_image_difference_view_has_a_colour_bar(ct_item):
-    from app.modes import get_mode
     from app.pipeline.jobs import ImmediateRunner
     from app.pipeline.offscreen import OffscreenScene
     from app.pipeline.view import ViewPipeline
@@ -100,7 +100,7 @@ def test_image_difference_view_has_a_colour_bar(ct_item):
     scene = OffscreenScene((96, 96))
     pipeline = ViewPipeline(scene.renderer, ImmediateRunner(), lambda: (96, 96))
     try:
-        pipeline.set_inputs(view_inputs(ct_item), "raymarch-vs-vtk-gpu", {"difference_tolerance": 0.02})
+        pipeline.set_inputs(view_inputs(ct_item), get_mode("raymarch-vs-vtk-gpu"), {"difference_tolerance": 0.02})
         scene.render()
         content = pipeline.content
         assert isinstance(content, ImageDifferenceContent)

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from algorithms.compare.image_metrics import psnr_foreground
+from app.modes import get_mode
 from app.pipeline.headless import RenderSettings, render_item
 from app.scene import VolumeItem
-from app.selection import masked_volume, parse_cut
+from app.cutaways import masked_volume, parse_cut
 
 SPHERE = "sphere:0,-40,120,100"  # LPS mm: the top of the phantom's head (the vertex), seen from the anterior view
 MESH_SPHERE = "sphere:30,-80,0,70"  # LPS mm: the front left of the skull (the frontal bone and the left orbit)
@@ -32,7 +33,7 @@ def items():
 @pytest.mark.parametrize("mode", MODES)
 def test_cut_render_agrees_with_the_premasked_volume(items, mode):
     item, premasked, sphere = items
-    settings = dict(mode=mode, size=(128, 128), shading=False, parallel=mode == "shear-warp")
+    settings = dict(mode=get_mode(mode), size=(128, 128), shading=False, parallel=mode == "shear-warp")
     cut = render_item(item, RenderSettings(tools=(sphere,), cut_evaluation="binary", **settings))
     reference = render_item(premasked, RenderSettings(**settings)).image
     plain = render_item(item, RenderSettings(**settings)).image
@@ -56,7 +57,7 @@ def test_modes_that_cannot_cut_say_so():
         pytest.skip("every volume and surface mode honours tools")
     item = VolumeItem("tiny", volume=_tiny_volume())
     with pytest.raises(ValueError, match="does not honour cut-away tools"):
-        render_item(item, RenderSettings(mode=refused[0].name, size=(32, 32), tools=(parse_cut("sphere:0,0,0,5"),),
+        render_item(item, RenderSettings(mode=refused[0], size=(32, 32), tools=(parse_cut("sphere:0,0,0,5"),),
                                          parallel=True))
 
 

@@ -16,8 +16,8 @@ import pytest
 
 import app.pipeline.headless as headless
 from app.modes import get_mode
+from app.pipeline.frames import rgba_to_rgb
 from app.pipeline.headless import RenderSettings, picture_is_frame, render_item
-from app.pipeline.images import rgba_to_rgb
 from app.scene import VolumeItem
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -49,7 +49,7 @@ def test_software_modes_take_their_frame_and_vtk_modes_keep_opengl():
     ("slicing-axis", dict(background=(0.5, 0.5, 0.5))),
 ])
 def test_frame_picture_is_what_the_opengl_path_reads_back(item, monkeypatch, mode, settings):
-    wanted = RenderSettings(mode=mode, size=(72, 56), **settings)
+    wanted = RenderSettings(mode=get_mode(mode), size=(72, 56), **settings)
     without_gl = render_item(item, wanted)
     assert without_gl.image.shape == (56, 72, 3) and without_gl.image.std() > 0
     np.testing.assert_array_equal(without_gl.image, without_gl.frame)
@@ -115,7 +115,7 @@ def test_with_other_threads_running_nibabel_is_imported_as_it_is(tmp_path, item)
 
 
 def test_a_single_pass_keeps_no_running_sum(item):
-    from app.pipeline.images import RendererContent
+    from app.modes.renderers import RendererContent
     from app.pipeline.jobs import ImmediateRunner
     from app.pipeline.offscreen import FrameScene
     from app.pipeline.view import ViewPipeline
@@ -125,7 +125,7 @@ def test_a_single_pass_keeps_no_running_sum(item):
         pipeline = ViewPipeline(scene.renderer, ImmediateRunner(), lambda: (40, 32))
         pipeline.set_camera(headless.default_camera(item, view="anterior", aspect=40 / 32))
         pipeline.set_inputs(headless.view_inputs(item, uses_iso=False))
-        pipeline.set_mode("raymarch", options)
+        pipeline.set_mode(get_mode("raymarch"), options)
         content = pipeline.content
         assert isinstance(content, RendererContent) and pipeline.last_frame.stats["passes"] == (2 if kept else 1)
         assert (content._sum is not None) == kept and pipeline.last_frame.image.shape == (32, 40, 3)

@@ -137,3 +137,19 @@ def test_mesh_command_writes_one_closed_mesh_per_label(tmp_path):
     assert again.returncode != 0 and "already exists" in again.stderr and "Traceback" not in again.stderr
     missing = voxelscope("mesh", path, "--labels", "3", "-o", tmp_path / "x", check=False)
     assert "label(s) 3 do not occur" in missing.stderr
+
+
+def test_mesh_command_applies_every_clean_up_flag_to_each_label(tmp_path):
+    """--largest (and the other clean-up flags) reach one-mesh-per-label exports as they reach a single surface."""
+    from app.io.meshes import describe_mesh, load_mesh
+
+    volume = label_volume()
+    volume.array[2:6, 2:6, 40:44] = 1  # a loose fragment of label 1, far from its ball
+    path = save_volume(volume, tmp_path / "labels.nii.gz")
+    whole, largest = tmp_path / "whole", tmp_path / "largest"
+    for folder, flags in ((whole, ()), (largest, ("--largest",))):
+        listing = json.loads(voxelscope("mesh", path, "--labels", "1", "-o", folder, "--json", *flags).stdout)
+        file = folder / listing["meshes"][0]["file"]
+        assert describe_mesh(load_mesh(file))["components"] == (1 if flags else 2), flags
+    refused = voxelscope("mesh", path, "--labels", "1", "-o", tmp_path / "bad", "--decimate", "1.5", check=False)
+    assert refused.returncode != 0 and "[0, 1)" in refused.stderr and "Traceback" not in refused.stderr

@@ -23,6 +23,7 @@ from algorithms.common.progress import OperationCancelled
 from algorithms.datasets.volumes import sphere_field
 from app import mesh_cleanup, meshing
 from app.io.errors import FileExistsRefusal
+from app.mesh_cleanup import Cleanup
 from app.datasets import ct_head_phantom
 from app.meshing import EmptySurfaceError, MeshTooLargeError, export_mesh, surface_for_export, write_export
 from app.volume import Volume
@@ -213,8 +214,8 @@ def test_post_processing_reports_progress(small_ct, tmp_path):
     surface = surface_for_export(small_ct, method="flying-edges", iso=300.0, progress=seen.append)
     assert seen == sorted(seen) and seen[-1] == 1.0
     steps = []
-    write_export(surface, tmp_path / "a.ply", cleanup={"largest_component": True, "smooth_iterations": 5,
-                                                       "decimate": 0.3}, progress=steps.append)
+    write_export(surface, tmp_path / "a.ply", cleanup=Cleanup(largest_component=True, smooth_iterations=5,
+                                                                  decimate=0.3), progress=steps.append)
     assert steps == sorted(steps) and steps[-1] == 1.0
     # Clean-up (0-0.4), validation (0.4-0.8) and writing (0.8-1; once per block of triangles) each report inside
     # their share.
@@ -231,7 +232,7 @@ def test_cancelling_post_processing_leaves_nothing(small_ct, tmp_path, stop_at):
             raise OperationCancelled("cancelled")
 
     with pytest.raises(OperationCancelled):
-        write_export(surface, tmp_path / "a.stl", cleanup={"smooth_iterations": 5, "decimate": 0.3},
+        write_export(surface, tmp_path / "a.stl", cleanup=Cleanup(smooth_iterations=5, decimate=0.3),
                      progress=cancel)
     assert list(tmp_path.iterdir()) == []
 

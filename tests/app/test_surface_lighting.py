@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from app.modes import get_mode
 from app.pipeline.cameras import STANDARD_VIEWS, default_camera
 from app.pipeline.headless import RenderSettings, render_item, view_inputs
 from app.pipeline.jobs import ImmediateRunner
@@ -127,20 +128,16 @@ def distinguishable(measured: dict[int, tuple[float, float]]) -> bool:
 @pytest.mark.parametrize("mode", ["voxel-faces", "tower", "marching-cubes"])
 @pytest.mark.parametrize("view", list(STANDARD_VIEWS))
 def test_face_orientations_are_distinguishable_from_every_standard_view(mode, view):
-    from app.modes import get_mode
-
     tunnels = tunnel(view)
     surface = get_mode(mode).extract(tunnels, 0.5).polydata
     labels = orientation_labels(tunnels, surface, view)
-    image = render_item(tunnels, RenderSettings(mode=mode, view=view, size=SIZE, iso=0.5)).image
+    image = render_item(tunnels, RenderSettings(mode=get_mode(mode), view=view, size=SIZE, iso=0.5)).image
     measured = brightness_by_orientation(image, labels)
     assert len(measured) == 5, measured  # the front faces and the four walls of the tunnel seen end-on
     assert distinguishable(measured), measured
 
 
 def test_the_headlight_alone_fails_the_same_test():
-    from app.modes import get_mode
-
     tunnels = tunnel("anterior")
     surface = get_mode("voxel-faces").extract(tunnels, 0.5).polydata
     labels = orientation_labels(tunnels, surface, "anterior")
@@ -171,18 +168,18 @@ def test_same_lights_in_every_surface_mode_and_handed_back():
     scene = OffscreenScene((64, 64))
     pipeline = ViewPipeline(scene.renderer, ImmediateRunner(), lambda: (64, 64))
     try:
-        pipeline.set_inputs(view_inputs(tunnels, iso=0.5), "vtk-gpu")
+        pipeline.set_inputs(view_inputs(tunnels, iso=0.5), get_mode("vtk-gpu"))
         scene.render()
         before = lights_of(scene.renderer)  # VTK's automatic headlight
         seen = {}
         for mode in mode_names(input="volume", output="surface") + ["marching-cubes-vs-flying-edges"]:
-            pipeline.set_mode(mode)
+            pipeline.set_mode(get_mode(mode))
             scene.render()
             seen[mode] = lights_of(scene.renderer)
             assert scene.renderer.GetUseSSAO()
         assert len({tuple(lights) for lights in seen.values()}) == 1
         assert len(next(iter(seen.values()))) == len(SURFACE_LIGHTS)
-        pipeline.set_mode("vtk-gpu")
+        pipeline.set_mode(get_mode("vtk-gpu"))
         scene.render()
         assert lights_of(scene.renderer) == before and not scene.renderer.GetUseSSAO()
     finally:
@@ -206,10 +203,9 @@ def test_voxel_steps_show_from_a_standard_view():
                                                                                           prepend=grey[:, :1])))
         return float(np.mean(jump[inside] > 6))
 
-    lit = render_item(item, RenderSettings(mode="voxel-faces", size=SIZE)).image
-    surface = render_item(item, RenderSettings(mode="voxel-faces", size=SIZE))  # same again: deterministic
+    lit = render_item(item, RenderSettings(mode=get_mode("voxel-faces"), size=SIZE)).image
+    surface = render_item(item, RenderSettings(mode=get_mode("voxel-faces"), size=SIZE))  # same again: deterministic
     assert np.array_equal(lit, surface.image)
-    from app.modes import get_mode
 
     polydata = get_mode("voxel-faces").extract(item, 300.0).polydata
     scene = OffscreenScene(SIZE)

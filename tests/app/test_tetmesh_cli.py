@@ -116,6 +116,7 @@ def test_render_draws_a_clipped_stuffing_view_and_refuses_a_malformed_plane(tmp_
 def test_the_operation_makes_a_tetmesh_item_that_the_tetmesh_mode_shows():
     from app.datasets import ct_head_phantom
     from app.operations import get_operation
+    from app.modes import get_mode
     from app.pipeline import RenderSettings, render_item
     from app.scene import VolumeItem
 
@@ -132,7 +133,7 @@ def test_the_operation_makes_a_tetmesh_item_that_the_tetmesh_mode_shows():
     reach = np.asarray(volume.spacing)
     assert np.all(bounds[:, 0] >= world[:, 0] - reach) and np.all(bounds[:, 1] <= world[:, 1] + reach)
     assert bounds[2, 0] < world[2, 0]  # the vertebra column is cut by the first slice and closed below it
-    picture = render_item(item, RenderSettings(mode="tetmesh", size=(96, 96)))
+    picture = render_item(item, RenderSettings(mode=get_mode("tetmesh"), size=(96, 96)))
     assert picture.image.std() > 0
 
 

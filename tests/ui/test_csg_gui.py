@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 from qtpy.QtWidgets import QFileDialog
 
+from app.mesh_cleanup import Cleanup
+
 from .conftest import open_and_wait, wait_ready
 
 
@@ -72,7 +74,7 @@ def test_subtract_offset_and_export(qtbot, window, small_ct_file, tmp_path, monk
     out = tmp_path / "ring_minus_ball.stl"
     monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *args, **kwargs: (str(out), "STL (*.stl)"))
     monkeypatch.setattr(ExportOptionsDialog, "ask", classmethod(lambda cls, path, parent=None: {
-        "coordinates": "LPS", "cleanup": {}}))
+        "coordinates": "LPS", "cleanup": Cleanup()}))
     with qtbot.waitSignal(window.tasks.ended, timeout=60_000, check_params_cb=lambda t: "Exporting" in t.label):
         window.export_mesh()
     reader = vtkSTLReader()

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 from qtpy.QtCore import QPointF, Qt
+from qtpy.QtWidgets import QFileDialog
 
 from .conftest import open_and_wait
 from .gui_helpers import drag
@@ -33,7 +34,7 @@ def _widget_point(view, world):
 
 
 def test_box_tool_dragged_in_one_view_cuts_all_four_then_keep_exports_the_crop(qtbot, window, small_ct_file,
-                                                                               tmp_path):
+                                                                               tmp_path, monkeypatch):
     from app.io import load_volume
 
     window.model.set_layout("2x2")
@@ -42,9 +43,9 @@ def test_box_tool_dragged_in_one_view_cuts_all_four_then_keep_exports_the_crop(q
     uncut = _captures(window)
 
     _wait_all(qtbot, window, lambda: qtbot.mouseClick(window.tool_panel.add_buttons["box"], Qt.LeftButton))
-    assert [tool.shape for tool in window.selection.tools] == ["box"]
+    assert [tool.shape for tool in window.model.cutaways.tools] == ["box"]
     assert window.tool_panel.list.count() == 1
-    start_centre = window.selection.tools[0].centre.copy()
+    start_centre = window.model.cutaways.tools[0].centre.copy()
     assert all(widget.enabled for widget in window.tool_widgets[:4])
 
     # Drag the box with the middle button (VTK's box widget: translate) in the first view, left and up.
@@ -53,7 +54,7 @@ def test_box_tool_dragged_in_one_view_cuts_all_four_then_keep_exports_the_crop(q
     end = QPointF(start.x() - 25.0, start.y() - 20.0)
     _wait_all(qtbot, window, lambda: drag(view.plotter.interactor, start, end, button=Qt.MiddleButton,
                                                   steps=10))
-    moved = window.selection.tools[0]
+    moved = window.model.cutaways.tools[0]
     assert np.linalg.norm(moved.centre - start_centre) > 5.0, "the drag did not move the tool"
     # Every linked view's widget shows the moved tool, and every view shows the cut.
     for widget in window.tool_widgets[:4]:
@@ -66,7 +67,7 @@ def test_box_tool_dragged_in_one_view_cuts_all_four_then_keep_exports_the_crop(q
         assert changed > 0.005, f"view {index} ({window.views[index].mode}) does not show the cut"
 
     # A mesh export of a surface view extracts from the volume minus the tool (capped at the cut).
-    from app.selection import removed_overlay
+    from app.cutaways import removed_overlay
 
     source = window.export_source(window.views[0])
     removed = removed_overlay(window.model.volume, [moved]).array.astype(bool)
@@ -82,13 +83,17 @@ def test_box_tool_dragged_in_one_view_cuts_all_four_then_keep_exports_the_crop(q
 
     # Keep mode: the region of interest.
     _wait_all(qtbot, window, lambda: window.set_tool_mode(0, "keep"))
-    assert window.selection.tools[0].mode == "keep"
+    assert window.model.cutaways.tools[0].mode == "keep"
     kept = _captures(window)
     for index, (removed, keep) in enumerate(zip(cut, kept)):
         assert (np.abs(removed - keep).max(axis=-1) > 30).mean() > 0.005, index
 
-    # File > Export cropped volume writes the inside of the box on the volume's grid; reopened, it sits there.
-    path = window.export_cropped_volume(tmp_path / "roi.nii.gz")
+    # File > Export cropped volume writes the inside of the box on the volume's grid (in a worker); reopened, it sits
+    # there.
+    path = tmp_path / "roi.nii.gz"
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *a, **k: (str(path), ""))
+    window.export_cropped_volume_dialog()
+    qtbot.waitUntil(path.exists, timeout=60_000)
     original, cropped = window.model.volume, load_volume(path)
     assert np.allclose(cropped.spacing, original.spacing)
     assert np.allclose(cropped.direction, original.direction)

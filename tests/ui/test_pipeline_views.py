@@ -18,7 +18,7 @@ from .conftest import open_and_wait, wait_ready
 def _image_modes() -> list[str]:
     """Our software renderers and their comparisons with VTK: the modes whose picture is a frame of their own."""
     return [name for name in mode_names(output=("image", "comparison"))
-            if get_mode(name).output == "image" or get_mode(get_mode(name).test).output == "image"]
+            if get_mode(name).output == "image" or get_mode(name).test.output == "image"]
 
 
 @pytest.mark.parametrize("mode", _image_modes())
@@ -29,7 +29,7 @@ def test_every_image_mode_draws_the_same_frame_headless_and_in_a_view(qtbot, win
     view = window.views[0]
     shown = view.pipeline.last_frame.image
     assert shown.shape[:2] == tuple(reversed(view.pipeline.viewport_size())) and shown.std() > 0
-    settings = RenderSettings(mode=mode, size=view.pipeline.viewport_size(), camera=view.pipeline.camera())
+    settings = RenderSettings(mode=get_mode(mode), size=view.pipeline.viewport_size(), camera=view.pipeline.camera())
     headless = render_item(view.item, settings)
     assert headless.frame is not None
     np.testing.assert_array_equal(headless.frame, shown)

@@ -11,6 +11,7 @@ from qtpy.QtCore import QTimer
 from qtpy.QtWidgets import QApplication, QFileDialog, QMessageBox
 
 from algorithms.compare.image_metrics import psnr
+from app.mesh_cleanup import Cleanup
 from app.pipeline import read_png, write_png
 from app.samples import sample_path
 
@@ -121,7 +122,7 @@ def test_export_mesh_through_the_menu(qtbot, window, small_ct_file, tmp_path, mo
     from ui.dialogs import ExportOptionsDialog
 
     monkeypatch.setattr(ExportOptionsDialog, "ask", classmethod(lambda cls, path, parent=None: {
-        "coordinates": "LPS", "cleanup": {}}))
+        "coordinates": "LPS", "cleanup": Cleanup()}))
     surface = window.views[0].current_surface()
     with qtbot.waitSignal(window.tasks.ended, timeout=60_000, check_params_cb=lambda t: "Exporting" in t.label):
         window.export_mesh()
@@ -150,7 +151,7 @@ def test_export_with_capped_edges_re_extracts_a_closed_surface(qtbot, window, sm
     out = tmp_path / "capped.stl"
     monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *args, **kwargs: (str(out), "STL (*.stl)"))
     monkeypatch.setattr(ExportOptionsDialog, "ask", classmethod(lambda cls, path, parent=None: {
-        "coordinates": "RAS", "cleanup": {}, "close_edges": True}))
+        "coordinates": "RAS", "cleanup": Cleanup(), "close_edges": True}))
     with qtbot.waitSignal(window.tasks.ended, timeout=60_000, check_params_cb=lambda t: "Exporting" in t.label):
         window.export_mesh()
     sidecar = json.loads(Path(str(out) + ".json").read_text())
@@ -167,7 +168,7 @@ def test_a_very_large_surface_asks_before_it_is_written(qtbot, window, small_ct_
     out = tmp_path / "large.stl"
     monkeypatch.setattr(QFileDialog, "getSaveFileName", lambda *args, **kwargs: (str(out), "STL (*.stl)"))
     monkeypatch.setattr(ExportOptionsDialog, "ask", classmethod(lambda cls, path, parent=None: {
-        "coordinates": "LPS", "cleanup": {}}))
+        "coordinates": "LPS", "cleanup": Cleanup()}))
     questions, answers = [], [QMessageBox.No, QMessageBox.Yes]
     monkeypatch.setattr(QMessageBox, "question", lambda parent, title, text, *a: (questions.append(text),
                                                                                    answers.pop(0))[1])
@@ -192,7 +193,7 @@ def test_export_options_dialog_reports_every_choice(qtbot):
 
     dialog = ExportOptionsDialog("skull.stl")
     qtbot.addWidget(dialog)
-    assert dialog.options() == {"coordinates": "LPS", "cleanup": {}, "close_edges": False}
+    assert dialog.options() == {"coordinates": "LPS", "cleanup": Cleanup(), "close_edges": False}
     dialog.coordinates.setCurrentIndex(1)
     dialog.smooth.setValue(20)
     dialog.decimate.setValue(0.5)
@@ -201,7 +202,7 @@ def test_export_options_dialog_reports_every_choice(qtbot):
     dialog.close_edges.setChecked(True)
     assert dialog.options() == {
         "coordinates": "RAS", "close_edges": True,
-        "cleanup": {"smooth_iterations": 20, "decimate": 0.5, "largest_component": True, "fill_holes_mm": 4.0},
+        "cleanup": Cleanup(smooth_iterations=20, decimate=0.5, largest_component=True, fill_holes_mm=4.0),
     }
 
 
@@ -256,7 +257,7 @@ def test_gui_keeps_turning_while_meshing_and_cancel_stops(qtbot, window, tmp_pat
     # Cancel: start a new extraction and press Cancel in the status bar once it is under way. The view says it was
     # cancelled and keeps the previous surface (the new one was never finished or shown).
     window.model.set_iso(-2.0)
-    qtbot.waitUntil(lambda: window._progress_value > 0, timeout=30_000)
+    qtbot.waitUntil(lambda: window.task_progress.fraction > 0, timeout=30_000)
     window.cancel_button.click()
     qtbot.waitUntil(lambda: not view.pipeline.preparing, timeout=60_000)
     assert view.stats_label.text().startswith("cancelled")

@@ -63,10 +63,24 @@ def test_session_saved_and_reopened_after_a_restart(qtbot, tmp_path, settings, s
     first.resize(1200, 800)
     first.show()
     qtbot.waitExposed(first)
+    from app.io import save_volume
+    from app.scene import FieldItem
+
     first.model.set_layout("1x2")
     first.model.set_view_mode(0, "flying-edges")
-    first.model.set_view_mode(1, "vtk-cpu")
+    first.model.set_view_mode(1, "raymarch", {"samples": 96})
     open_and_wait(qtbot, first, small_ct_file)
+    head = first.model.base
+    # Labels opened from a file, a surface made by an operation, a mask made in memory.
+    tissue = (head.volume.array > -300).astype(np.uint8) + (head.volume.array > 300)
+    labels_file = save_volume(head.volume.with_array(tissue, units="", modality=""), tmp_path / "tissue.nii.gz")
+    with qtbot.waitSignal(first.volume_loaded, timeout=60_000):
+        first.open_labels(labels_file)
+    with qtbot.waitSignal(first.operation_finished, timeout=120_000):
+        first.run_operation("extract-surface", items={"volume": head}, options={"method": "flying-edges"})
+    bone = head.volume.with_array((head.volume.array > 300).astype(np.uint8), units="", modality="")
+    first.model.scene.add(FieldItem("bone mask", volume=bone, role="mask"))
+    names = first.model.scene.names()
     camera = first.views[0].renderer.GetActiveCamera()
     camera.Azimuth(35)
     camera.Elevation(20)
@@ -74,6 +88,13 @@ def test_session_saved_and_reopened_after_a_restart(qtbot, tmp_path, settings, s
     first.model.rotate_slices("axial", 15.0)
     first.slice_views["coronal"].set_zoom(2.0)
     first.model.add_measurement(Measurement("distance", points=[(0, 0, 0), (30, 40, 0)]))
+    first.add_tool("box")
+    first.add_tool("sphere")
+    first.set_tool_mode(1, "keep")
+    first.model.cutaways.replace(1, first.model.cutaways.tools[1].moved(centre=first.model.base_volume.centre,
+                                                                        size=(60.0,)))
+    first.model.cutaways.set_evaluation("distance")
+    tools = list(first.model.cutaways.tools)
     wait_ready(qtbot, first)
     pose = (camera.GetPosition(), camera.GetFocalPoint(), camera.GetViewUp())
     views_before = first.grab_views()
@@ -87,7 +108,13 @@ def test_session_saved_and_reopened_after_a_restart(qtbot, tmp_path, settings, s
     with qtbot.waitSignal(second.session_opened, timeout=120_000):
         assert second.open_session(session)
     wait_ready(qtbot, second)
-    assert second.model.layout == "1x2" and second.model.view_modes[:2] == ["flying-edges", "vtk-cpu"]
+    assert second.model.layout == "1x2" and second.model.view_modes[:2] == ["flying-edges", "raymarch"]
+    assert second.model.view_options[1] == {"samples": 96} and second.views[1].pipeline.options["samples"] == 96
+    assert second.model.scene.names() == names and second.model.item.name == head.name
+    assert [item.name for item in second.model.label_items] == ["tissue.nii.gz"]
+    np.testing.assert_array_equal(second.model.scene.get("bone mask").volume.array, bone.array)
+    surface = second.model.scene.of_kind("mesh")[0]
+    assert surface.polydata.GetNumberOfPoints() == first.model.scene.get(surface.name).polydata.GetNumberOfPoints()
     assert second.size().width() == 1200 and second.model.iso == 500.0
     restored = second.views[0].renderer.GetActiveCamera()
     for a, b in zip(pose, (restored.GetPosition(), restored.GetFocalPoint(), restored.GetViewUp())):
@@ -96,10 +123,45 @@ def test_session_saved_and_reopened_after_a_restart(qtbot, tmp_path, settings, s
     assert second.measurements_panel.table.rowCount() == 1
     np.testing.assert_allclose(second.model.slice_rotation, first.model.slice_rotation)
     assert second.slice_views["coronal"].zoom == 2.0
+    assert [(t.shape, t.mode) for t in second.model.cutaways.tools] == [("box", "remove"), ("sphere", "keep")]
+    assert second.current_tool == 1  # the selected tool keeps its widget
+    for before, after in zip(tools, second.model.cutaways.tools):
+        np.testing.assert_allclose(after.matrix, before.matrix)
+        assert after.size == before.size
+    assert second.model.cutaways.evaluation == "distance" and second.tool_panel.list.count() == 2
+    assert all(len(view.pipeline.inputs.tools) == 2 for view in second.views[:2])  # the views are cut again
     views_after = second.grab_views()
     assert views_after.shape == views_before.shape
     assert psnr(views_after, views_before) > 35  # the same pictures after the restart
     second.close()
+
+
+def test_the_default_views_change_only_when_asked(qtbot, settings):
+    """A run that picks its own modes (``voxelscope gui --modes``, a session) leaves the next start's layout and
+    modes alone; View > Use these views as the default changes them."""
+    from ui.main_window import MainWindow
+    from app.workbench import DEFAULT_MODES
+
+    def start():
+        window = MainWindow(settings=settings)
+        qtbot.addWidget(window)
+        return window
+
+    first = start()
+    first.model.set_layout("1x2")
+    first.model.set_view_mode(0, "raymarch")
+    first.model.set_view_mode(1, "shear-warp")
+    first.close()
+    second = start()
+    assert second.model.layout == "2x2" and tuple(second.model.view_modes) == DEFAULT_MODES
+    second.model.set_layout("1x2")
+    second.model.set_view_mode(1, "shear-warp")
+    second.save_default_views()
+    second.close()
+    third = start()
+    assert third.model.layout == "1x2" and third.model.view_modes[:2] == [DEFAULT_MODES[0], "shear-warp"]
+    assert third.views[1].mode_box.currentData() == "shear-warp"
+    third.close()
 
 
 def test_provenance_panel_lists_every_warning_of_a_damaged_folder(qtbot, window, tmp_path):

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -131,7 +131,8 @@ def mask_tool_from_file(text: str, *, mode: str = "remove") -> Tool:
     values = volume.array
     unique = np.unique(values[:: max(1, values.size // 1_000_000)])
     role = "mask" if np.all(np.isin(unique, (0, 1))) else "distance"
-    return grid_tool(values, volume.grid, role=role, transform=transform, mode=mode, label=Path(path).name)
+    tool = grid_tool(values, volume.grid, role=role, transform=transform, mode=mode, label=Path(path).name)
+    return replace(tool, source=str(Path(path).resolve()))
 
 
 def tools_from_specs(specs, *, mode: str = "remove") -> list[Tool]:
@@ -233,9 +234,41 @@ def default_tool(shape: str, world_bounds, *, mode: str = "remove") -> Tool:
     raise ValueError(f"a new tool is a box, sphere, cylinder or plane, not {shape!r}")
 
 
+# -- tools as data (sessions) ------------------------------------------------------------------------------------------
+def tool_to_dict(tool: Tool) -> dict:
+    """A tool as JSON-ready data: its shape, frame (4x4, to LPS mm), sizes (mm), mode, visibility and label; a grid
+    tool by the file its values came from (:attr:`Tool.source`), which :func:`tool_from_dict` reads again. A grid
+    tool made in memory has no such file: a ValueError says so."""
+    data = {"shape": tool.shape, "matrix": np.asarray(tool.matrix).tolist(), "size": list(tool.size),
+            "mode": tool.mode, "visible": bool(tool.visible), "label": tool.label}
+    if tool.shape == "grid":
+        if not tool.source:
+            raise ValueError(f"the cut-away tool {tool.label or 'grid'} was made in memory and has no file to be "
+                             "read from again")
+        data.update(source=tool.source, role=tool.role)
+    return data
+
+
+def tool_from_dict(data: dict) -> Tool:
+    """The tool :func:`tool_to_dict` wrote (a ValueError naming what is wrong or missing)."""
+    try:
+        shape, matrix = str(data["shape"]), np.asarray(data["matrix"], dtype=np.float64)
+        extra = {"mode": str(data.get("mode", "remove")), "visible": bool(data.get("visible", True)),
+                 "label": str(data.get("label", ""))}
+        if shape != "grid":
+            return Tool(shape, matrix, tuple(float(v) for v in data.get("size", ())), **extra)
+        source = str(data["source"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"a cut-away tool in the session is incomplete or invalid ({exc})") from None
+    tool = mask_tool_from_file(source, mode=extra["mode"])
+    if data.get("role", tool.role) != tool.role:
+        raise ValueError(f"the cut-away tool's file {source} no longer holds a {data['role']} (it holds a {tool.role})")
+    return replace(tool, matrix=matrix, visible=extra["visible"], label=extra["label"] or tool.label)
+
+
 # -- the state the views share ------------------------------------------------------------------------------------------
 @dataclass
-class Selection:
+class Cutaways:
     """The cut-away tools of a workbench and how they are evaluated. ``changed(moving)`` is emitted on every change
     (``moving`` while a widget is being dragged: views take the cheap path, and refine when it is False again)."""
 
@@ -266,6 +299,19 @@ class Selection:
             raise ValueError(f"the cut evaluation is binary or distance, got {evaluation!r}")
         self.evaluation = evaluation
         self.changed.emit(False)
+
+    def to_dict(self) -> dict:
+        """The tools and their evaluation as JSON-ready data (see :func:`tool_to_dict`)."""
+        return {"evaluation": self.evaluation, "tools": [tool_to_dict(tool) for tool in self.tools]}
+
+    def restore(self, data: dict) -> None:
+        """Replace the tools and evaluation by what :meth:`to_dict` wrote (checked before anything changes)."""
+        evaluation = data.get("evaluation", "binary")
+        if evaluation not in CUT_EVALUATIONS:
+            raise ValueError(f"the session's cut evaluation is binary or distance, got {evaluation!r}")
+        tools = [tool_from_dict(entry) for entry in data.get("tools", [])]
+        self.evaluation = evaluation
+        self.set_tools(tools)
 
 
 class Stopwatch:

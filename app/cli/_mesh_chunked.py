@@ -1,6 +1,7 @@
 """``voxelscope mesh VOLUME.zarr --workers N`` / ``--scheduler ADDRESS``: the chunked path of the mesh command.
 
-The command module (:mod:`app.cli.mesh`) hands over here when either flag is given; this opens the store's
+The command module (:mod:`app.cli.mesh`) hands over here when either flag is given (this module imports dask and
+distributed, so only then); this opens the store's
 metadata only, starts or connects to the cluster (:func:`.cluster.dask_client`), meshes chunk by chunk
 (:func:`.chunked.mesh_chunked`), moves the stitched mesh to patient coordinates and writes it with the same
 clean-up, validation, sidecar and JSON report as the in-memory path (plus a ``chunked`` entry: blocks, skipped
@@ -11,12 +12,23 @@ from __future__ import annotations
 
 import time
 
+from algorithms.common.progress import scaled
+from algorithms.surfaces.marching_cubes import MarchingCubesMesh
+
+from ..distributed.chunked import mesh_chunked
+from ..distributed.cluster import dask_client
+from ..io.zarr import is_zarr_path, open_zarr
+from ..mesh_cleanup import Cleanup
+from ..mesh_files import check_mesh_targets
+from ..meshing import SurfaceForExport, to_world, write_export
+from ..volume import default_isovalue
+from ..samples import resolve_path
+from .common import CommandError, print_json
+
 __all__ = ["run_chunked_mesh"]
 
 
 def _refuse(args, tools) -> None:
-    from ..cli.common import CommandError
-
     if tools or getattr(args, "labels", None) is not None:
         raise CommandError("--workers/--scheduler mesh one surface of a chunked volume; --cut and --labels need the "
                            "volume in memory (drop --workers to read it whole)")
@@ -27,19 +39,8 @@ def _refuse(args, tools) -> None:
         raise CommandError("--stride and --close-edges are not available chunk by chunk; drop them or --workers")
 
 
-def run_chunked_mesh(args, tools, *, progress=None) -> int:
+def run_chunked_mesh(args, tools, cleanup: Cleanup, *, progress=None) -> int:
     """Run the chunked mesh command for parsed ``args``; returns the exit code."""
-    from algorithms.common.progress import scaled
-    from algorithms.surfaces.marching_cubes import MarchingCubesMesh
-
-    from ..cli.common import CommandError, print_json
-    from ..io.zarr import is_zarr_path, open_zarr
-    from ..meshing import SurfaceForExport, to_world, write_export
-    from ..mesh_files import check_mesh_targets
-    from ..samples import resolve_path
-    from .chunked import mesh_chunked
-    from .cluster import dask_client
-
     _refuse(args, tools)
     path = resolve_path(args.path)
     if not is_zarr_path(path):
@@ -49,10 +50,8 @@ def run_chunked_mesh(args, tools, *, progress=None) -> int:
     value_range = chunked.metadata.get("value_range")
     if args.iso is not None:
         iso = float(args.iso)
-    elif chunked.modality == "CT":
-        iso = 300.0
-    elif value_range:
-        iso = value_range[0] + 0.35 * (value_range[1] - value_range[0])
+    elif chunked.units == "HU" or value_range:
+        iso = default_isovalue(chunked.units, value_range)  # the store's range: its percentiles would read it all
     else:
         raise CommandError(f"{path}: give --iso (the store records no value range to choose a default from)")
     if value_range and not value_range[0] < iso <= value_range[1]:
@@ -81,15 +80,6 @@ def run_chunked_mesh(args, tools, *, progress=None) -> int:
     surface = SurfaceForExport(world, surface_stats, source, "marching-cubes", iso, args.coordinates.upper(),
                                {"chunked": True, "chunks": stats["chunks"], "workers": stats["workers"],
                                 "scheduler": args.scheduler or "local"})
-    cleanup = {}
-    if args.smooth:
-        cleanup.update(smooth_iterations=args.smooth, smooth_passband=args.passband)
-    if args.decimate:
-        cleanup["decimate"] = args.decimate
-    if args.largest:
-        cleanup["largest_component"] = True
-    if args.fill_holes:
-        cleanup["fill_holes_mm"] = args.fill_holes
     export = write_export(surface, output, cleanup=cleanup, overwrite=args.force, progress=scaled(progress, 0.6, 1.0))
     validity = export.validity or {}
     report = {
