@@ -119,6 +119,16 @@ def test_the_window_never_branches_on_what_a_mode_is():
     assert not offenders, "\n".join(offenders)
 
 
+def test_the_window_makes_no_standard_items_in_python():
+    """A QStandardItem made in Python and handed to a model crashed the window when the model was deleted with a
+    closed window's widgets (PySide released its wrapper: a segmentation fault, native stacks in docs/testing.md);
+    combo rows are made through ``ui/combo_rows.py`` instead."""
+    offenders = [f"{path.relative_to(ROOT)}:{number}: {line.strip()}"
+                 for path in _tracked_python("ui")
+                 for number, line in enumerate(path.read_text().splitlines(), 1) if "QStandardItem(" in line]
+    assert not offenders, "\n".join(offenders)
+
+
 def test_no_module_is_longer_than_a_reader_can_hold():
     long = [f"{path.relative_to(ROOT)} ({count} lines)" for path in _tracked_python("algorithms", "app", "ui")
             if "tables" not in path.name and (count := len(path.read_text().splitlines())) > 600]

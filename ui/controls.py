@@ -280,26 +280,15 @@ class ControlPanel(QWidget):
 
     def _fill_presets(self, suitable: list[str], others: list[str]) -> None:
         """The presets made for the volume's modality, then the others under a heading (chosen with a warning)."""
-        from qtpy.QtGui import QStandardItem, QStandardItemModel
+        from .combo_rows import Row, fill
 
-        model = QStandardItemModel(self.preset_box)
-        for name in suitable:
-            entry = QStandardItem(name)
-            entry.setData(name, Qt.UserRole)
-            entry.setToolTip(PRESETS[name].description)
-            model.appendRow(entry)
+        rows = [Row(name, name, PRESETS[name].description) for name in suitable]
         if others:
-            heading = QStandardItem("Made for another modality:")
-            heading.setFlags(Qt.NoItemFlags)
-            model.appendRow(heading)
-            for name in others:
-                entry = QStandardItem(f"   {name} (for {PRESETS[name].units or 'other'} values)")
-                entry.setData(name, Qt.UserRole)
-                entry.setData(True, Qt.UserRole + 1)
-                entry.setToolTip(PRESETS[name].description + " - not made for this volume's values")
-                model.appendRow(entry)
-        with _blocked(self.preset_box):
-            self.preset_box.setModel(model)
+            rows.append(Row("Made for another modality:", heading=True))
+            rows += [Row(f"   {name} (for {PRESETS[name].units or 'other'} values)", name,
+                         PRESETS[name].description + " - not made for this volume's values",
+                         roles={Qt.UserRole + 1: True}) for name in others]
+        fill(self.preset_box, rows)
 
     def _preset_chosen(self, index: int) -> None:
         name = self.preset_box.itemData(index)

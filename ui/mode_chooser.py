@@ -3,11 +3,12 @@ comparisons...), each with its plain name, whose implementation it is, and its o
 
 from __future__ import annotations
 
-from qtpy.QtCore import Qt, Signal
-from qtpy.QtGui import QStandardItem, QStandardItemModel
+from qtpy.QtCore import Signal
 from qtpy.QtWidgets import QComboBox
 
 from app.modes import modes, modes_for
+
+from .combo_rows import Row, fill
 
 
 class ModeChooser(QComboBox):
@@ -17,7 +18,6 @@ class ModeChooser(QComboBox):
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
-        self.setModel(QStandardItemModel(self))
         # A bounded width: a view's header must not force a minimum window size; the list pops up wider.
         self.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
         self.setMinimumContentsLength(14)
@@ -41,24 +41,13 @@ class ModeChooser(QComboBox):
         return [self.itemData(i) for i in range(self.count()) if self.itemData(i)]
 
     def _fill(self, choices) -> None:
-        model: QStandardItemModel = self.model()
-        blocked = self.blockSignals(True)
-        model.clear()
-        group = None
+        rows, group = [], None
         for mode in choices:
             if mode.group != group:
                 group = mode.group
-                heading = QStandardItem(group)
-                heading.setFlags(Qt.NoItemFlags)
-                font = heading.font()
-                font.setBold(True)
-                heading.setFont(font)
-                model.appendRow(heading)
-            entry = QStandardItem(f"   {mode.label} ({mode.origin})")
-            entry.setData(mode.name, Qt.UserRole)
-            entry.setToolTip(f"{mode.name}: {mode.description}")
-            model.appendRow(entry)
-        self.blockSignals(blocked)
+                rows.append(Row(group, heading=True))
+            rows.append(Row(f"   {mode.label} ({mode.origin})", mode.name, f"{mode.name}: {mode.description}"))
+        fill(self, rows)
 
     def _activated(self, index: int) -> None:
         name = self.itemData(index)
