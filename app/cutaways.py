@@ -25,18 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from algorithms.fields.selection import (
-    Tool,
-    box_tool,
-    cut_volume,
-    cylinder_tool,
-    grid_tool,
-    plane_tool,
-    sphere_tool,
-    tool_set,
-)
+from algorithms.fields.selection import (Tool, box_tool, cut_volume, cylinder_tool, grid_tool, masked_copy, plane_tool,
+                                         removed_mask, rotation_matrix, sphere_tool, tool_set)
 
 from .events import Signal
+from .io import load_volume
+from .samples import resolve_path
 from .volume import Volume
 
 CUT_MODES = ("remove", "keep")
@@ -106,7 +100,6 @@ def _transform_from_json(path: Path) -> np.ndarray:
         if matrix.shape != (4, 4) or not np.all(np.isfinite(matrix)) or abs(np.linalg.det(matrix)) < 1e-12:
             raise ValueError(f"--cut mask: the matrix in {path} must be a finite, invertible 4x4 matrix")
         return matrix
-    from algorithms.fields.selection import rotation_matrix
 
     matrix = np.eye(4)
     try:
@@ -119,9 +112,6 @@ def _transform_from_json(path: Path) -> np.ndarray:
 
 def mask_tool_from_file(text: str, *, mode: str = "remove") -> Tool:
     """A grid tool from ``FILE[@TRANSFORM.json]``: a mask (values 0 and 1 only) or a distance field (mm)."""
-    from .io import load_volume
-    from .samples import resolve_path
-
     file_text, _, transform_text = text.partition("@")
     path = resolve_path(file_text)
     if not Path(path).exists():
@@ -166,8 +156,6 @@ def cut_for_surface(volume: Volume, tools, iso: float, *, evaluation: str = "bin
 def masked_volume(volume: Volume, tools, *, background: float | None = None) -> Volume:
     """``volume`` with the voxels the tools remove set to ``background`` (default: its minimum): the "pre-masked"
     volume (what our renderers never build; VTK's CPU mapper needs it, and the tests compare against it)."""
-    from algorithms.fields.selection import masked_copy
-
     tools_in_frame = tool_set_for(volume, tools)
     if tools_in_frame is None:
         return volume
@@ -183,7 +171,6 @@ def cropped_volume(volume: Volume, tools, *, background: float | None = None) ->
         raise ValueError("export of a cropped volume needs a tool in keep mode (a box, for a region of interest)")
     masked = masked_volume(volume, tools, background=background)
     removed = tool_set_for(volume, tools)
-    from algorithms.fields.selection import removed_mask
 
     kept = ~removed_mask(removed, volume.array.shape, volume.spacing)
     if not kept.any():
@@ -199,8 +186,6 @@ def cropped_volume(volume: Volume, tools, *, background: float | None = None) ->
 def removed_overlay(volume: Volume, tools, *, progress=None) -> Volume | None:
     """A mask (uint8, 1 where the tools remove) on ``volume``'s grid, for shading the removed region over the slice
     views; None without visible tools. (``progress`` is accepted for workers; the evaluation is one pass.)"""
-    from algorithms.fields.selection import removed_mask
-
     tools_in_frame = tool_set_for(volume, tools)
     if tools_in_frame is None:
         return None

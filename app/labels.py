@@ -33,6 +33,10 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
+from . import __version__
+from .io.atomic import atomic_output
+from .io.errors import FileExistsRefusal
+from .overlays import label_palette
 from .volume import Volume
 
 MAX_LABELS = 4096
@@ -95,8 +99,6 @@ class LabelTable:
 
 def generated_colors(count: int) -> np.ndarray:
     """``count`` distinct colours ``(count, 4)`` float32 (golden-angle hues, bright), label 0 transparent."""
-    from .overlays import label_palette
-
     palette = label_palette(count)
     palette[1:, 3] = 1.0
     return palette
@@ -286,10 +288,7 @@ def export_label_meshes(volume: Volume, folder, *, labels: str | Sequence[int] =
     """
     from scipy import ndimage
 
-    from . import __version__
-    from .io.errors import FileExistsRefusal
     from .meshing import MESH_SUFFIXES, export_mesh
-    from .io.atomic import atomic_output
 
     suffix = suffix if suffix.startswith(".") else "." + suffix
     if suffix.lower() not in MESH_SUFFIXES:

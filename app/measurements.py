@@ -18,11 +18,13 @@ from __future__ import annotations
 import csv
 import io
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
 from .events import Signal
+from .slices import PlaneFrame, plane_grid, sample_plane, voxel_aligned
 
 KINDS = ("distance", "angle", "ellipse", "mask")
 CSV_COLUMNS = ("name", "kind", "value", "unit", "mean", "sd", "min", "max", "value_units", "pixels", "plane",
@@ -114,8 +116,6 @@ class Measurement:
         return results
 
     def _ellipse(self, volume) -> dict[str, Any]:
-        from .slices import PlaneFrame, plane_grid, sample_plane, voxel_aligned
-
         if volume is None:
             raise ValueError("region statistics need the volume")
         u, v = (np.asarray(a, dtype=np.float64) for a in self.frame)
@@ -222,8 +222,6 @@ class MeasurementList:
         return buffer.getvalue()
 
     def write_csv(self, path, *, overwrite: bool = False):
-        from pathlib import Path
-
         from .io.atomic import atomic_output
 
         path = Path(path).expanduser()

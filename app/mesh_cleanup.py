@@ -31,7 +31,9 @@ from vtkmodules.vtkCommonDataModel import vtkPolyData
 
 from algorithms import compare as surface_compare
 from algorithms.common.progress import ProgressCallback, report, scaled
-from algorithms.common.vtk_bridge import run_algorithm
+from algorithms.common.vtk_bridge import polydata_arrays, run_algorithm
+
+from .mesh_validity import edge_report, validity_numbers
 
 __all__ = [
     "Cleanup",
@@ -172,8 +174,6 @@ def decimate(polydata, target_reduction: float, *, progress: ProgressCallback = 
 
 
 def _watertight(polydata) -> bool:
-    from .mesh_validity import edge_report
-
     points, triangles = surface_compare.surface_arrays(polydata)
     return edge_report(points.shape[0], triangles)[0].watertight
 
@@ -327,10 +327,6 @@ def validity_report(polydata, *, progress: ProgressCallback = None) -> ValidityR
     Lean in memory and reporting progress (:func:`app.mesh_validity.validity_numbers`); the progress callback may
     raise :class:`~algorithms.common.progress.OperationCancelled` to stop it.
     """
-    from algorithms.common.vtk_bridge import polydata_arrays
-
-    from .mesh_validity import validity_numbers
-
     polydata = _checked_polydata(polydata)
     points, triangles = polydata_arrays(polydata)
     numbers = validity_numbers(points, triangles, progress=progress)

@@ -26,10 +26,13 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
+from vtkmodules.util import numpy_support
+from vtkmodules.vtkCommonCore import vtkCommand
 
 from algorithms.common.progress import ProgressCallback, report
+from algorithms.common.vtk_bridge import polydata_arrays
 
-from .io.atomic import atomic_outputs, check_companions, sidecar_json
+from .io.atomic import atomic_outputs, check_companions, sidecar_json, write_error
 from .io.errors import VolumeWriteError
 
 MESH_SUFFIXES = (".stl", ".ply", ".obj", ".vtp")
@@ -49,10 +52,6 @@ def sidecar_path(mesh_path) -> Path:
 def mesh_arrays(polydata) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Points ``(n, 3)`` float32, triangles ``(m, 3)`` int64 and point normals ``(n, 3)`` float32 (or None) of a
     triangle ``vtkPolyData`` (views on VTK's memory where the types allow)."""
-    from vtkmodules.util import numpy_support
-
-    from algorithms.common.vtk_bridge import polydata_arrays
-
     points, triangles = polydata_arrays(polydata)
     points = np.asarray(points, dtype=np.float32)
     normals = polydata.GetPointData().GetNormals()
@@ -119,7 +118,6 @@ def _write_obj(handle, points, triangles, normals, progress) -> int | None:
 
 
 def _write_vtp(path: Path, polydata, progress) -> None:
-    from vtkmodules.vtkCommonCore import vtkCommand
     from vtkmodules.vtkCommonMisc import vtkErrorCode
     from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
@@ -183,8 +181,6 @@ def write_mesh_files(polydata, path, *, sidecar: dict[str, Any] | None = None, o
             try:
                 temporaries[1].write_text(text)
             except OSError as exc:
-                from .io.atomic import write_error
-
                 side = targets[1]
                 raise VolumeWriteError(f"{write_error(side, exc)} (the sidecar of {path.name}; neither file was "
                                        "written)") from exc

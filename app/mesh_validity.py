@@ -23,7 +23,7 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
-from algorithms.common.progress import ProgressCallback, report
+from algorithms.common.progress import ProgressCallback, report, scaled
 from algorithms.compare.topology import EdgeReport, ray_crossings
 
 #: Triangles per block when summing areas and volumes (a block's float64 corners take 72 bytes per triangle: 18 MB).
@@ -208,8 +208,6 @@ def validity_numbers(points: np.ndarray, tris: np.ndarray, *, progress: Progress
     """Everything the validity report says about a triangle mesh, as a dict: ``edges`` (an
     :class:`~algorithms.compare.topology.EdgeReport`), ``components``, ``volumes`` and ``closed`` per piece,
     ``depth`` per piece, ``outward``, ``area_mm2`` and ``volume_mm3`` (signed, of the whole mesh)."""
-    from algorithms.common.progress import scaled
-
     points = np.asarray(points)
     if points.dtype not in (np.float32, np.float64):
         points = points.astype(np.float64)

@@ -30,10 +30,13 @@ from typing import Any
 import numpy as np
 
 from algorithms.common.progress import ProgressCallback, report, scaled
+from algorithms.common.vtk_bridge import run_algorithm, vtk_matrix
 from algorithms.compare import triangulated
 
+from . import __version__, mesh_cleanup
 from .mesh_cleanup import Cleanup
 from .mesh_files import MESH_SUFFIXES, check_mesh_targets, sidecar_path, write_mesh_files
+from .modes import get_mode, mode_names
 from .pipeline.lit_surfaces import SurfaceResult, polydata_stats
 from .volume import Volume
 
@@ -94,8 +97,6 @@ def extract_surface(volume, method: str, iso: float, *, stride: int = 1, options
 
 
 def _surface_mode(method: str):
-    from .modes import get_mode
-
     mode = get_mode(method)
     if mode.output != "surface" or mode.input != "volume":
         raise ValueError(f"{method!r} does not extract surfaces from volumes; choose one of "
@@ -105,8 +106,6 @@ def _surface_mode(method: str):
 
 def surface_methods() -> list[str]:
     """The registered modes that extract a surface from a volume (``voxelscope mesh --method``)."""
-    from .modes import mode_names
-
     return mode_names(input="volume", output="surface")
 
 
@@ -138,8 +137,6 @@ def to_world(polydata, volume, coordinates: str = "LPS", *, progress: ProgressCa
     from vtkmodules.vtkCommonTransforms import vtkTransform
     from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
 
-    from algorithms.common.vtk_bridge import run_algorithm, vtk_matrix
-
     coordinates = coordinates.upper()
     if coordinates not in COORDINATE_SYSTEMS:
         raise ValueError(f"coordinates must be LPS or RAS, got {coordinates!r}")
@@ -162,8 +159,6 @@ def merge_duplicate_points(polydata, *, progress: ProgressCallback = None):
     edges makes a point per cut edge even where several meet on one sample; a connected mesh is what an STL or PLY
     user expects. Cells that merging reduces to fewer than three points are dropped; the others are kept."""
     from vtkmodules.vtkFiltersCore import vtkCleanPolyData
-
-    from algorithms.common.vtk_bridge import run_algorithm
 
     clean = vtkCleanPolyData()
     clean.SetInputData(polydata)
@@ -227,8 +222,6 @@ def mesh_provenance(source, *, method: str, iso: float, coordinates: str, parame
                     stats: dict[str, Any], validity: dict[str, Any] | None) -> dict[str, Any]:
     """The sidecar content: source, series, method, parameters, coordinate system, units and counts. ``source`` is a
     :class:`~app.volume.Volume` or the dict :class:`SurfaceForExport` keeps of it."""
-    from . import __version__
-
     source = _source_info(source) if isinstance(source, Volume) else source
     return {
         "software": f"Voxelscope {__version__}",
@@ -326,8 +319,6 @@ def write_export(surface: SurfaceForExport, path, *, cleanup: Cleanup | None = N
     (``sidecar=False``: the mesh alone). STL, PLY and OBJ get triangles. Every step reports progress and honours
     cancellation.
     """
-    from . import mesh_cleanup
-
     path = check_mesh_targets(path, sidecar=sidecar, overwrite=overwrite)
     cleanup = (cleanup or Cleanup()).chosen()
     notes: dict[str, Any] = {}

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-#: Labels of the DICOM fields (``volume.metadata["dicom"]``, see :data:`app.io.dicom.scan.STUDY_KEYWORDS`).
+#: Labels of the DICOM fields (``volume.metadata["dicom"]``, see :data:`app.io.dicom.headers.STUDY_KEYWORDS`).
 FIELD_LABELS = {
     "PatientName": "Patient name", "PatientID": "Patient ID", "PatientBirthDate": "Birth date", "PatientSex": "Sex",
     "PatientAge": "Age", "StudyDate": "Study date", "StudyTime": "Study time", "StudyDescription": "Study",

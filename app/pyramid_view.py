@@ -36,6 +36,7 @@ import numpy as np
 from algorithms.common.camera import Camera
 from algorithms.common.progress import ProgressCallback, report
 
+from .io.zarr import open_zarr
 from .volume import Volume
 
 __all__ = ["COARSE_BUDGET", "REGION_BUDGET", "RegionPlan", "pyramid_of", "load_pyramid_for_view", "visible_box",
@@ -74,7 +75,6 @@ def pyramid_of(volume: Volume | None):
     info = (volume.metadata.get("pyramid") if volume is not None else None) or {}
     if not info.get("path"):
         return None
-    from .io.zarr import open_zarr
 
     return open_zarr(info["path"])
 
@@ -85,7 +85,6 @@ def load_pyramid_for_view(path, *, series_uid: str | None = None, labels: bool |
     with the value range, robust range and histogram the workbench shows computed from that level (level 0 when it
     fits: nothing to refine). ``labels`` as :func:`app.workbench.mark_labels`; ``series_uid`` is ignored (Zarr
     stores hold one volume); the signature is :func:`app.workbench.load_for_workbench`'s."""
-    from .io.zarr import open_zarr
     from .workbench import mark_labels
 
     chunked = open_zarr(path)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+from importlib.metadata import entry_points
 from typing import Callable, Generic, Iterable, TypeVar
 
 T = TypeVar("T")
@@ -67,7 +68,6 @@ class Registry(Generic[T]):
             for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda info: info.name):
                 if info.name not in self.skip and not info.name.startswith("_"):
                     importlib.import_module(f"{self.package}.{info.name}")
-            from importlib.metadata import entry_points
 
             for entry in entry_points(group=self.group):
                 entry.load()

@@ -12,11 +12,13 @@ gridded like volumes and every volume mode can show them), ``"mesh"``, ``"tetmes
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, ClassVar, Iterator
 
 import numpy as np
 
 from .events import Signal
+from .io.meshes import Mesh, describe_mesh
 from .volume import Volume
 
 FIELD_ROLES = ("mask", "distance", "labels")
@@ -109,17 +111,11 @@ class MeshItem(Item):
     @classmethod
     def from_mesh(cls, mesh, name: str | None = None) -> "MeshItem":
         """An item for a mesh read by :func:`app.io.meshes.load_mesh` (its provenance kept in the metadata)."""
-        from pathlib import Path
-
         metadata = {"source_path": str(mesh.source_path), "source_format": mesh.source_format,
                     "warnings": list(mesh.warnings)}
         return cls(name or Path(mesh.source_path).name, polydata=mesh.polydata, metadata=metadata)
 
     def describe(self) -> dict[str, Any]:
-        from pathlib import Path
-
-        from .io.meshes import Mesh, describe_mesh
-
         mesh = Mesh(self.polydata, Path(self.metadata.get("source_path", "")),
                     self.metadata.get("source_format", "mesh"), list(self.metadata.get("warnings", [])))
         return {"name": self.name, **describe_mesh(mesh)}

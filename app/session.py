@@ -15,14 +15,22 @@ The model part is Qt-free (:func:`model_state`, :func:`apply_model_state`); the 
 
 from __future__ import annotations
 
+import copy
 import json
+import uuid
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .io.atomic import numpy_json
+from algorithms.common.camera import Camera
+
+from .io import save_volume, load_volume
+from .io.atomic import atomic_output, check_target, numpy_json
+from .io.meshes import load_mesh
 from .measurements import Measurement
+from .mesh_files import write_mesh_files
+from .scene import FieldItem, MeshItem, TetMeshItem
 from .transfer import Shading, TransferFunction
 
 FORMAT = "voxelscope-session"
@@ -49,8 +57,6 @@ def _camera_dict(camera) -> dict[str, Any]:
 
 
 def camera_from_dict(data: dict[str, Any]):
-    from algorithms.common.camera import Camera
-
     try:
         return Camera(tuple(data["position"]), tuple(data["focal_point"]), tuple(data["view_up"]),
                       float(data["view_angle"]), bool(data["parallel_projection"]), float(data["parallel_scale"]))
@@ -177,15 +183,9 @@ def _plain(value):
 
 
 def _write_item(item, path: Path) -> None:
-    from .io.atomic import atomic_output
-
     if item.kind == "field":
-        from .io import save_volume
-
         save_volume(item.volume, path)
     elif item.kind == "mesh":
-        from .mesh_files import write_mesh_files
-
         write_mesh_files(item.polydata, path)
     else:
         from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridWriter
@@ -218,11 +218,6 @@ def write_session_files(path, state: dict, items: list, *, overwrite: bool = Fal
     """Write a session to ``path`` with ``items`` in :func:`items_folder` (new files each time: the previous
     session file stays valid until the new one replaces it; files it no longer names are removed after). Refuses
     an existing ``path`` unless ``overwrite``, before anything is written."""
-    import copy
-    import uuid
-
-    from .io.atomic import check_target
-
     path = Path(path).expanduser()
     check_target(path, overwrite=overwrite)
     state = copy.deepcopy(state)
@@ -258,20 +253,14 @@ def _item_file(session_path, entry: dict[str, Any]) -> Path:
 
 def load_item(session_path, entry: dict[str, Any], *, progress=None):
     """One item :func:`save_session` wrote, read again as a scene item (a ValueError naming the file if not)."""
-    from .scene import FieldItem, MeshItem, TetMeshItem
-
     file = _item_file(session_path, entry)
     kind, name, metadata = entry.get("kind"), str(entry.get("name", file.stem)), dict(entry.get("metadata") or {})
     metadata.setdefault("source", "")  # made in a session: saved with the next session again, never by reference
     if kind == "field":
-        from .io import load_volume
-
         volume = load_volume(file)
         volume.units, volume.modality = str(entry.get("units", "")), str(entry.get("modality", ""))
         return FieldItem(name, volume=volume, role=str(entry.get("role", "mask")), metadata=metadata)
     if kind == "mesh":
-        from .io.meshes import load_mesh
-
         return MeshItem(name, polydata=load_mesh(file).polydata, metadata=metadata)
     if kind == "tetmesh":
         from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridReader
@@ -293,8 +282,6 @@ def load_items(session_path, state: dict[str, Any]) -> list:
 
 
 def write_session(path, state: dict[str, Any], *, overwrite: bool = False) -> Path:
-    from .io.atomic import atomic_output
-
     path = Path(path).expanduser()
     with atomic_output(path, overwrite=overwrite) as temporary:
         temporary.write_text(json.dumps(state, indent=2, default=_json_default) + "\n")

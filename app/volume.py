@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from algorithms.common.grid import Grid
 from algorithms.common.vtk_bridge import array_from_image, image_from_array
 
 #: Anatomical names of the LPS axes, for labels: (negative end, positive end) per axis.
@@ -272,8 +273,6 @@ class Volume:
     @property
     def grid(self):
         """The volume's :class:`~algorithms.common.grid.Grid` (dimensions, spacing, origin, direction)."""
-        from algorithms.common.grid import Grid
-
         return Grid(self.dimensions, self.spacing, self.origin, tuple(self.direction.ravel()))
 
     @classmethod

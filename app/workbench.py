@@ -16,15 +16,21 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from algorithms.common.progress import scaled
+
+from .cutaways import Cutaways
 from .events import Signal
+from .io import load_volume
+from .io.meshes import is_mesh_path, load_mesh
+from .labels import as_labels, is_label_map, table_for
 from .measurements import Measurement, MeasurementList
 from .modes import get_mode, modes_for
 from .scene import FieldItem, MeshItem, Scene, VolumeItem
-from .cutaways import Cutaways
 from .slices import PLANES, plane_frame, rotation_about
 from .transfer import PRESETS, Shading, TransferFunction, default_preset_name, transfer_function_for
 from .volume import Volume, default_iso
@@ -90,11 +96,6 @@ def load_for_workbench(path, *, series_uid: str | None = None, labels: bool | No
     """Read a volume or a mesh file off the GUI thread. For a volume, also compute what the workbench shows at once
     (value range, robust range, histogram; cached on the volume) and whether it is a label map (``labels``: force
     the answer; see :func:`mark_labels`). Returns a :class:`Volume` or a loaded mesh."""
-    from algorithms.common.progress import scaled
-
-    from .io import load_volume
-    from .io.meshes import is_mesh_path, load_mesh
-
     if is_mesh_path(path):
         return load_mesh(path)
     volume = load_volume(path, series_uid=series_uid, progress=scaled(progress, 0.0, 0.9))
@@ -109,8 +110,6 @@ def mark_labels(volume: Volume, labels: bool | None = None, color_table=None) ->
     """Decide whether ``volume`` is a label map (``labels`` True/False, or None to detect it) and, if so, attach its
     :class:`app.labels.LabelTable` (``color_table``: a file, else the tables next to the volume) as
     ``metadata["label_table"]``."""
-    from .labels import as_labels, is_label_map, table_for
-
     if labels is None:
         labels = is_label_map(volume)
     if labels:
@@ -179,8 +178,6 @@ class WorkbenchModel:
         """Show a new volume (it replaces the volume on show): isovalue, preset, window/level and cursor are reset
         to its defaults. A label map (``metadata["label_table"]``, see :func:`mark_labels`) is drawn in its label
         colours in the slice views."""
-        from pathlib import Path
-
         for old in self.scene.of_kind("volume"):
             self.scene.remove(old.name)
         self.base = None
@@ -193,8 +190,6 @@ class WorkbenchModel:
         """Add a label map over the volume on show (drawn in its colours over the slices, names on hover); with no
         volume on show it becomes the volume on show. ``volume.metadata["label_table"]`` gives names and colours
         (:func:`mark_labels` attaches it)."""
-        from pathlib import Path
-
         if "label_table" not in volume.metadata:
             mark_labels(volume, True)
         if self.base is None:

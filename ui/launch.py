@@ -103,6 +103,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from app.samples import resolve_path
     from app.vtk_setup import configure_vtk
 
+    from .lifetime import delete_now
     from .main_window import MainWindow, application
 
     if args.session:
@@ -227,4 +228,5 @@ def main(argv: Sequence[str] | None = None) -> int:
         labels = True if args.labels and args.labels.lower() in ("auto", "yes") else None
         window.open_path(resolve_path(args.path), series_uid=args.series, labels=labels)
     status = qt_app.exec()
+    delete_now(window)  # the window's C++ side first, while its Python wrappers live (ui/lifetime.py)
     return outcome["status"] or int(status)

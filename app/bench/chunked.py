@@ -25,10 +25,12 @@ peak (an upper bound); ``seconds`` (wall time of the whole command, cluster star
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 import threading
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +38,9 @@ import numpy as np
 
 from algorithms.common.progress import ProgressCallback, report
 
+from ..io import save_volume
+from ..io.zarr import read_zarr
+from ..io.zarr_blocks import write_ome_zarr_blocks
 from .common import machine_info, write_csv, write_json
 
 SIZE = 1024
@@ -76,10 +81,6 @@ def synthetic_store(path: Path, n: int, *, chunks: int = 128, workers: int = 2,
 
     Each chunk is computed from the formula in one of ``workers`` processes and written straight to the store; the
     pyramid levels are block means of the stored level above, chunk by chunk (:mod:`app.io.zarr_blocks`)."""
-    from functools import partial
-
-    from ..io.zarr_blocks import write_ome_zarr_blocks
-
     if path.exists():
         return path
     return write_ome_zarr_blocks(partial(synthetic_block, n), (n, n, n), np.uint16, path, spacing=(0.1, 0.1, 0.1),
@@ -145,8 +146,6 @@ def _mesh_row(name: str, arguments: list[str], size: int, workers: int, volume_m
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None, size: int | None = None,
         keep: bool = False) -> list[Path]:
     """Generate the volume, mesh it with 1 and 2 workers (and in memory at the quick size); CSV and JSON."""
-    import shutil
-
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     size = size or (QUICK_SIZE if quick else SIZE)
@@ -164,8 +163,6 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None, size
                               size, workers, volume_mib))
         report(progress, 0.3 + 0.3 * (n + 1))
     if size <= 384:  # the in-memory path on the same volume, for the overhead
-        from ..io import save_volume
-        from ..io.zarr import read_zarr
 
         nifti = out_dir / f"synthetic_{size}.nii"
         if not nifti.exists():

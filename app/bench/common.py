@@ -11,8 +11,11 @@ import time
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
+import numpy
+
 from algorithms.common.camera import Camera
 
+from ..datasets import ct_head_phantom
 from ..pipeline import (  # noqa: F401 - re-exported for the benchmarks
     FrameTimes,
     OffscreenScene,
@@ -22,6 +25,8 @@ from ..pipeline import (  # noqa: F401 - re-exported for the benchmarks
     time_interleaved,
 )
 from ..pipeline.props import volume_prop
+from ..samples import load_sample
+from ..vtk_setup import smp_backend
 
 
 #: The CT of the quick runs: the FORBILD head in the sample's field of view on 256 x 256 x 88 voxels (1.09 x 1.09 x
@@ -32,10 +37,7 @@ QUICK_CT_SHAPE = (88, 256, 256)
 def ct_volume(quick: bool):
     """The CT every benchmark measures: the bundled sample, read from its file, or its quick-run grid."""
     if quick:
-        from ..datasets import ct_head_phantom
-
         return ct_head_phantom(QUICK_CT_SHAPE)
-    from ..samples import load_sample
 
     return load_sample("ct")
 
@@ -75,10 +77,7 @@ def time_vtk_mapper(volume, function, mapper: str, world_cameras: Sequence[Camer
 
 def machine_info() -> dict[str, Any]:
     """What the numbers were measured on."""
-    import numpy
     import vtk
-
-    from ..vtk_setup import smp_backend
 
     info = {
         "python": platform.python_version(),

@@ -33,7 +33,12 @@ from typing import Any
 import numpy as np
 
 from algorithms.common.progress import ProgressCallback, report
+from algorithms.references.vtk_selection import mask_image
 
+from ..io.meshes import load_mesh
+from ..modes import get_mode
+from ..pipeline.headless import RenderSettings, render_item
+from ..scene import VolumeItem
 from .common import ct_volume, machine_info, pyplot, save_figure, write_csv, write_json
 
 FRAMES = 4  # per round
@@ -54,8 +59,6 @@ def _bunny_tool():
     None (and a reason) when the shared meshes are absent."""
     from algorithms.compare.triangles import surface_arrays
     from algorithms.fields.selection import mesh_tool
-
-    from ..io.meshes import load_mesh
 
     path = MESHES / "stanford-bunny.obj.gz"
     if not path.exists():
@@ -78,16 +81,11 @@ def _tools():
 
 
 def _accepting(name: str) -> bool:
-    from ..modes import get_mode
-
     return get_mode(name).capabilities.accepts_selection
 
 
 def _frame_seconds(item, mode, shading, size, frames, tool=None) -> float:
     """Median frame time (s) of ``mode`` on ``item`` over ``frames`` frames of the turning camera."""
-    from ..modes import get_mode
-    from ..pipeline.headless import RenderSettings, render_item
-
     settings = RenderSettings(mode=get_mode(mode), size=size, shading=shading, frames=frames, parallel=mode == "shear-warp",
                               tools=() if tool is None else (tool,))
     return float(render_item(item, settings).info["frame_seconds"])
@@ -97,7 +95,6 @@ def _frames(rows, item, modes, tools, size, frames, rounds, progress) -> None:
     """Frame times with and without each tool, the three (uncut, cut, pre-masked) timed in turns ``rounds`` times
     (each a run of ``frames`` frames of the same turning camera), so that load from outside the benchmark falls on
     all of them alike; the ratios are medians over the rounds of each round's ratio."""
-    from ..scene import VolumeItem
     from ..cutaways import masked_volume
 
     variants = [(mode, False) for mode in modes] + [("raymarch", True)]
@@ -143,9 +140,6 @@ def median(values) -> float:
 def _agreement(item, volume, modes, sphere, size) -> list[dict[str, Any]]:
     from algorithms.compare.image_metrics import psnr_foreground
 
-    from ..modes import get_mode
-    from ..pipeline.headless import RenderSettings, render_item
-    from ..scene import VolumeItem
     from ..cutaways import masked_volume
 
     pre = VolumeItem("pre-masked", volume=masked_volume(volume, [sphere]))
@@ -167,7 +161,6 @@ def _moves(shape=(256, 256, 256)) -> list[dict[str, Any]]:
     """Median seconds per move of a sphere tool on a 256^3 volume, per kind of consumer."""
     from algorithms.common.selection import removal_field
     from algorithms.fields.selection import cut_volume, sphere_tool, tool_set
-    from algorithms.references.vtk_selection import mask_image
 
     rng = np.random.default_rng(0)
     array = rng.integers(-1000, 1500, size=shape, dtype=np.int16)
@@ -217,8 +210,6 @@ def _plot(rows, path: Path) -> Path:
 
 
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:
-    from ..scene import VolumeItem
-
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     volume = ct_volume(quick)

@@ -26,8 +26,12 @@ from typing import Any
 
 import numpy as np
 
+from algorithms.common.grid import Grid
 from algorithms.common.progress import ProgressCallback, report
+from algorithms.common.vtk_bridge import polydata_arrays
+from algorithms.references.vtk_distance import vtk_implicit_distance, vtk_loop_boolean
 
+from ..operations.distance import mesh_field
 from .common import machine_info, pyplot, save_figure, time_call, write_csv, write_json
 from .voxelise import _load_average, cube_grid, peak_rss_mib, sphere_mesh, start_run, torus_mesh
 
@@ -53,8 +57,6 @@ def _world(grid, flat):
 
 def _vtk_errors(points, triangles, grid, values, flat, *, seed=14) -> tuple[float, float]:
     """Largest and mean |ours - VTK| (mm) at up to 10,000 of ``flat`` voxels."""
-    from algorithms.references.vtk_distance import vtk_implicit_distance
-
     pick = np.random.default_rng(seed).choice(flat, min(SAMPLES, flat.size), replace=False)
     theirs, _ = vtk_implicit_distance((points, triangles), _world(grid, pick))
     error = np.abs(np.abs(values.ravel()[pick].astype(np.float64)) - np.abs(theirs))
@@ -157,15 +159,11 @@ def _manifold(points, triangles):
 
 
 def _csg_rows(size, repeats) -> list[dict[str, Any]]:
-    from algorithms.common.grid import Grid
-    from algorithms.common.vtk_bridge import polydata_arrays
     from algorithms.compare.measures import enclosed_volume, hausdorff
     from algorithms.compare.topology import edge_manifoldness
     from algorithms.fields.csg import combine
 
-    from ..operations.distance import mesh_field
     from algorithms.fields.distance import signed_distance
-    from algorithms.references.vtk_distance import vtk_loop_boolean
 
     torus = torus_mesh(30.0, 10.0, 512, 256)
     ball = sphere_mesh(14.0, 256, 128)

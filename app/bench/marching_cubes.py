@@ -36,6 +36,10 @@ Measured
 from __future__ import annotations
 
 import importlib
+import os
+import subprocess
+import sys
+import tempfile
 import time
 import tracemalloc
 from pathlib import Path
@@ -45,7 +49,11 @@ import numpy as np
 
 from algorithms.common.progress import ProgressCallback, report
 from algorithms.common.vtk_bridge import image_from_array, run_algorithm
+from app.datasets import torus_field
+from app.io import load_volume
+from app.volume import default_iso
 
+from ..vtk_setup import configure_vtk, set_smp_backend, smp_backend
 from .common import (ct_volume, machine_info, paired_ratio, pyplot, save_figure, time_call, time_interleaved, write_csv,
                      write_json)
 
@@ -62,8 +70,6 @@ COLUMNS = (
 def noisy_torus(n: int, *, seed: int = 0) -> np.ndarray:
     """A torus field on an ``n``^3 grid (level 0, major radius 0.3 n, minor 0.12 n voxels) with Gaussian noise of
     0.3 voxel, float32: a smooth surface with small bumps, like a segmented organ."""
-    from app.datasets import torus_field
-
     field = torus_field((n, n, n), 0.3 * n, 0.12 * n)
     noise = np.random.default_rng(seed).standard_normal(field.shape, dtype=np.float32)
     noise *= 0.3
@@ -79,9 +85,6 @@ def _cases(quick: bool):
         return volume.array, volume.spacing, volume.origin, (300.0, -300.0)
 
     def colin():
-        from app.io import load_volume
-        from app.volume import default_iso
-
         volume = load_volume(COLIN27)
         return volume.array, volume.spacing, volume.origin, (round(default_iso(volume), 1),)
 
@@ -110,11 +113,6 @@ print(first - (time.perf_counter() - start))
 
 def numba_compile_seconds(dtypes) -> dict[str, float]:
     """Compile time of our kernels for each volume dtype, in a fresh process with an empty numba cache."""
-    import os
-    import subprocess
-    import sys
-    import tempfile
-
     seconds = {}
     for dtype in dtypes:
         with tempfile.TemporaryDirectory() as cache:
@@ -197,8 +195,6 @@ def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> l
     from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D, vtkMarchingCubes
 
     ours_module = importlib.import_module("algorithms.surfaces.marching_cubes.kernels")
-
-    from ..vtk_setup import configure_vtk, set_smp_backend, smp_backend
 
     configure_vtk()
     initial_backend = smp_backend()

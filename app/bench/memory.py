@@ -47,6 +47,8 @@ from typing import Any
 
 from algorithms.common.progress import ProgressCallback, report
 
+from ..datasets import ct_head_phantom
+from ..io import save_volume
 from .common import machine_info, pyplot, save_figure, write_csv, write_json
 
 SIZE = 512
@@ -66,8 +68,6 @@ def volume_file(out_dir: Path, size: int, progress: ProgressCallback = None) -> 
     path = Path(out_dir) / f"ct_phantom_{size}.nii"
     if path.exists():
         return path
-    from ..datasets import ct_head_phantom
-    from ..io import save_volume
 
     spacing = 240.0 / size
     volume = ct_head_phantom((size, size, size), (spacing, spacing, spacing))

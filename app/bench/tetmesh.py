@@ -40,7 +40,11 @@ from typing import Any
 import numpy as np
 
 from algorithms.common.progress import ProgressCallback, report
+from algorithms.common.vtk_bridge import image_from_array
+from algorithms.references.vtk_surfaces import contour
+from algorithms.references.vtk_tetrahedra import vtk_clip_tetrahedra, vtk_delaunay_tetrahedra
 
+from ..vtk_setup import configure_vtk
 from .common import ct_volume, machine_info, pyplot, save_figure, time_call, write_csv, write_json
 
 SOURCE_002 = [{"tetrahedra": 106_392, "seconds": 0.16}, {"tetrahedra": 365_976, "seconds": 0.55},
@@ -70,9 +74,7 @@ def _datasets(quick: bool):
 
 def _reference_surface(array, spacing, origin, iso):
     """Flying edges on the volume padded by one sample of its minimum (a closed surface), volume frame."""
-    from algorithms.common.vtk_bridge import image_from_array
     from algorithms.compare.triangles import surface_arrays
-    from algorithms.references.vtk_surfaces import contour
 
     padded = np.pad(array, 1, constant_values=array.min())
     shifted = np.asarray(origin) - np.asarray(spacing)
@@ -143,10 +145,6 @@ def _optional(name: str) -> bool:
 
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:
     """Run every case; write ``tetmesh.csv``, ``tetmesh_times.png``, ``tetmesh_angles.png`` and ``tetmesh.json``."""
-    from algorithms.references.vtk_tetrahedra import vtk_clip_tetrahedra, vtk_delaunay_tetrahedra
-
-    from ..vtk_setup import configure_vtk
-
     configure_vtk()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -50,21 +50,21 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
+from scipy import ndimage
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper
 
 from algorithms.common.progress import ProgressCallback, report, scaled
 from algorithms.common.vtk_bridge import image_from_array
-from algorithms.surfaces.tower import hybrid, tower_strips
-from algorithms.surfaces.voxel_faces import solid_mask, voxel_faces
 from algorithms.compare.voxel_surfaces import memory_usage, stripper_memory
 from algorithms.references.vtk_surfaces import vtk_stripper, vtk_threshold_surface
+from algorithms.surfaces.tower import hybrid, tower_strips
+from algorithms.surfaces.voxel_faces import solid_mask, voxel_faces
+from app.samples import MRICRON_COLIN27
 
 from .. import datasets
 from ..io import load_volume
 from ..pipeline import OffscreenScene
 from ..vtk_setup import configure_vtk, set_smp_backend, smp_backend
-from app.samples import MRICRON_COLIN27
-
 from .common import Timing, machine_info, pyplot, save_figure, time_call, write_csv, write_json
 
 #: Colin 27 (the source's BrainWeb grid, 181 x 217 x 181, 1 mm, uint8): Debian's mricron-data, then shared data.
@@ -251,8 +251,6 @@ def colin27_path() -> Path | None:
 
 def colin27_labels(values: np.ndarray) -> np.ndarray:
     """The atlas-like label volume (uint8, labels 0-3) made from Colin 27's T1 values; see :data:`LABEL_EDGES`."""
-    from scipy import ndimage
-
     return np.digitize(ndimage.median_filter(values, size=3), LABEL_EDGES).astype(np.uint8)
 
 

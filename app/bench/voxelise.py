@@ -47,7 +47,13 @@ import numpy as np
 
 from algorithms.common.grid import Grid
 from algorithms.common.progress import ProgressCallback, report
+from algorithms.common.vtk_bridge import polydata_arrays, polydata_from_arrays, run_algorithm
+from algorithms.references.vtk_fields import vtk_stencil_mask, StencilPipeline
 
+from ..io import load_volume
+from ..io.meshes import load_mesh
+from ..samples import sample_path
+from ..vtk_setup import configure_vtk, smp_backend
 from .common import machine_info, pyplot, save_figure, time_call, write_csv, write_json
 
 MESHES = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "meshes"
@@ -103,8 +109,6 @@ def sphere_mesh(radius: float, around: int, across: int):
 
 
 def _polydata_arrays(polydata):
-    from algorithms.common.vtk_bridge import polydata_arrays
-
     points, triangles = polydata_arrays(polydata)
     return np.ascontiguousarray(points, dtype=np.float64), np.ascontiguousarray(triangles, dtype=np.int64)
 
@@ -113,9 +117,7 @@ def _skull():
     """The sample CT's bone surface at 300 HU by our marching cubes, padded with air so it closes; LPS mm."""
     from algorithms.surfaces.marching_cubes import marching_cubes
 
-    from ..io import load_volume
     from ..meshing import closed_at_edges
-    from ..samples import sample_path
 
     volume = closed_at_edges(load_volume(sample_path("ct")), 300.0)
     mesh = marching_cubes(volume.array, 300.0, spacing=volume.spacing, normals=False)
@@ -124,7 +126,6 @@ def _skull():
 
 
 def _decimated(mesh, triangles: int):
-    from algorithms.common.vtk_bridge import polydata_from_arrays, run_algorithm
     from vtkmodules.vtkFiltersCore import vtkQuadricDecimation
 
     decimate = vtkQuadricDecimation()
@@ -135,7 +136,6 @@ def _decimated(mesh, triangles: int):
 
 
 def _subdivided(mesh):
-    from algorithms.common.vtk_bridge import polydata_from_arrays, run_algorithm
     from vtkmodules.vtkFiltersModeling import vtkLinearSubdivisionFilter
 
     subdivide = vtkLinearSubdivisionFilter()
@@ -145,11 +145,8 @@ def _subdivided(mesh):
 
 
 def _bunny(filled: bool):
-    from algorithms.common.vtk_bridge import run_algorithm
     from vtkmodules.vtkFiltersCore import vtkCleanPolyData, vtkTriangleFilter
     from vtkmodules.vtkFiltersModeling import vtkFillHolesFilter
-
-    from ..io.meshes import load_mesh
 
     mesh = load_mesh(MESHES / "stanford-bunny.obj.gz")
     if not filled:
@@ -251,7 +248,6 @@ def _agreement(model, size, ours, theirs, reference) -> dict[str, Any]:
 def _analytic_rows(sizes) -> list[dict[str, Any]]:
     from algorithms.compare.measures import enclosed_volume
     from algorithms.fields.voxelise import voxelise
-    from algorithms.references.vtk_fields import vtk_stencil_mask
 
     shapes = (("sphere r 40 mm", sphere_mesh(40.0, 720, 360), 4.0 / 3.0 * math.pi * 40.0 ** 3),
               ("torus R 45 r 15 mm", torus_mesh(45.0, 15.0, 720, 360), 2 * math.pi ** 2 * 45.0 * 15.0 ** 2))
@@ -294,9 +290,6 @@ def _grid_rows(quick: bool) -> list[dict[str, Any]]:
     """IoU and differing voxels against VTK's stencil on the real closed meshes and a fine sphere and torus, at
     64^3 and 256^3 (quick: 64^3), on an anisotropic 0.5 x 0.5 x 2 mm grid and a rotated anisotropic grid."""
     from algorithms.fields.voxelise import voxelise
-    from algorithms.references.vtk_fields import vtk_stencil_mask
-
-    from ..io.meshes import load_mesh
 
     meshes = [("sphere r 40 mm", sphere_mesh(40.0, 360, 180)),
               ("torus R 45 r 15 mm", torus_mesh(45.0, 15.0, 360, 180))]
@@ -332,8 +325,6 @@ def _grid_rows(quick: bool) -> list[dict[str, Any]]:
 def start_run(out_dir) -> tuple[Path, list[float] | None, dict[str, tuple[np.ndarray, np.ndarray]]]:
     """What the field benchmarks do first: VTK configured, the load average noted, the output folder made and the
     test meshes built in it. Returns ``(out_dir, load average at the start, meshes)``."""
-    from ..vtk_setup import configure_vtk
-
     configure_vtk()
     load_at_start = _load_average()
     out_dir = Path(out_dir)
@@ -344,9 +335,6 @@ def start_run(out_dir) -> tuple[Path, list[float] | None, dict[str, tuple[np.nda
 def run(out_dir, *, quick: bool = False, progress: ProgressCallback = None) -> list[Path]:
     """Time ours and VTK's stencil on every model and size; write CSV files, plots and JSON to ``out_dir``."""
     from algorithms.fields.voxelise import voxelise
-    from algorithms.references.vtk_fields import StencilPipeline
-
-    from ..vtk_setup import smp_backend
 
     out_dir, load_at_start, meshes = start_run(out_dir)
     sizes = QUICK_SIZES if quick else SIZES

@@ -17,11 +17,14 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import json
 import os
 import secrets
 import time
 from pathlib import Path
 from typing import Iterator, Sequence
+
+import numpy as np
 
 from .errors import FileExistsRefusal, VolumeWriteError
 
@@ -34,8 +37,6 @@ STALE_AFTER = 3600.0
 def sidecar_json(data) -> str:
     """``data`` as indented JSON text with a final newline: NumPy scalars and arrays as numbers and lists, paths
     as strings; anything else is a ``TypeError`` (a sidecar never holds a silently stringified object)."""
-    import json
-
     def default(value):
         if isinstance(value, Path):
             return str(value)
@@ -47,8 +48,6 @@ def sidecar_json(data) -> str:
 def numpy_json(value):
     """A NumPy integer, float or array as the int, float or list JSON stores (a ``json.dumps`` ``default``);
     anything else is a ``TypeError``."""
-    import numpy as np
-
     if isinstance(value, np.integer):
         return int(value)
     if isinstance(value, np.floating):

@@ -20,7 +20,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from vtkmodules.vtkCommonCore import vtkCommand, vtkStringArray
+from vtkmodules.vtkCommonDataModel import vtkImageData
 
+from algorithms.common.vtk_bridge import VTKError, array_from_image, run_algorithm
+
+from ..volume import Volume
 from .atomic import atomic_output
 from .errors import CorruptFileError, UnsupportedFormatError, VolumeWriteError
 from .geometry import guess_ct, make_volume, orthonormal_direction
@@ -44,8 +49,6 @@ __all__ = [
 def read_metaimage(path):
     """MetaImage (``.mha`` or ``.mhd`` + data file): header checked here, pixels through ``vtkMetaImageReader``."""
     from vtkmodules.vtkIOImage import vtkMetaImageReader
-
-    from algorithms.common.vtk_bridge import VTKError, array_from_image, run_algorithm
 
     path = Path(path)
     warn: list[str] = []
@@ -75,13 +78,8 @@ def read_metaimage(path):
 # ----------------------------------------------------------------------------------------------------------------
 def read_vtk_image(path):
     """VTK XML image (``.vti``) or legacy VTK (``.vtk``) holding structured points, checked before VTK reads it."""
-    from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkIOLegacy import vtkDataSetReader
     from vtkmodules.vtkIOXML import vtkXMLImageDataReader
-
-    from algorithms.common.vtk_bridge import VTKError, run_algorithm
-
-    from ..volume import Volume
 
     path = Path(path)
     if path.suffix.lower() == ".vti":
@@ -140,7 +138,6 @@ def write_vti(volume, path, *, overwrite: bool = False) -> Path:
     VTK's writer reports a full disk only through its error code (and by printing), so the error code is checked
     and VTK's messages are caught: a failed write never lands at ``path``.
     """
-    from vtkmodules.vtkCommonCore import vtkCommand, vtkStringArray
     from vtkmodules.vtkCommonMisc import vtkErrorCode
     from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
 

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..volume import Volume
 from .errors import CorruptFileError
 
 LPS_FROM_RAS = np.diag([-1.0, -1.0, 1.0])  # also RAS from LPS: the flip is its own inverse
@@ -50,8 +51,6 @@ def finite_vector(values, count: int, path: Path, what: str) -> np.ndarray:
 def make_volume(array, spacing, origin, direction, path: Path, source_format: str, warn: list[str], modality="",
                 units="", extra: dict[str, Any] | None = None):
     """The :class:`app.volume.Volume` of a reader, with ``source_format``, ``source_path`` and warnings."""
-    from ..volume import Volume
-
     metadata = {"source_format": source_format, "source_path": str(path), "warnings": warn}
     metadata.update(extra or {})
     try:

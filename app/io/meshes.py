@@ -25,6 +25,7 @@ Coordinates are taken as millimetres in the file's own frame (mesh formats carry
 
 from __future__ import annotations
 
+import importlib
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -32,11 +33,17 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from vtkmodules.util import numpy_support
+from vtkmodules.vtkCommonDataModel import vtkPolyData
+
+from algorithms.common.vtk_bridge import (cell_array_from_offsets, vtk_points, VTKError, run_algorithm, cell_arrays,
+                                          polydata_from_arrays, polydata_arrays)
 
 from .atomic import TEMP_PREFIX
 from .errors import MeshReadError, VolumeReadError
 from .mesh_formats import check_obj, check_ply, check_stl, read_off, sniff
 from .safety import inflate_prefix, memory_available, one_line, require_regular_file
+from .vtkimage import check_vtk_xml
 
 #: Mesh formats by (lower-case) extension.
 MESH_FORMATS = {".stl": "STL", ".obj": "OBJ", ".ply": "PLY", ".vtp": "VTP", ".off": "OFF"}
@@ -59,14 +66,10 @@ class Mesh:
 
     @property
     def points(self) -> np.ndarray:
-        from algorithms.common.vtk_bridge import polydata_arrays
-
         return np.asarray(polydata_arrays(self.polydata)[0], dtype=np.float64)
 
     @property
     def triangles(self) -> np.ndarray:
-        from algorithms.common.vtk_bridge import polydata_arrays
-
         return polydata_arrays(self.polydata)[1]
 
 
@@ -155,8 +158,6 @@ def _read_plain(file: Path, suffix: str, shown: Path, compression: str) -> Mesh:
         polydata = _vtk_read("vtkIOPLY", "vtkPLYReader", file, shown)
         label = "PLY"
     elif fmt == "VTP":
-        from .vtkimage import check_vtk_xml
-
         try:
             check_vtk_xml(file, "PolyData")
         except VolumeReadError as exc:
@@ -164,9 +165,6 @@ def _read_plain(file: Path, suffix: str, shown: Path, compression: str) -> Mesh:
         polydata = _vtk_read("vtkIOXML", "vtkXMLPolyDataReader", file, shown)
         label = "VTP"
     else:
-        from algorithms.common.vtk_bridge import cell_array_from_offsets, vtk_points
-        from vtkmodules.vtkCommonDataModel import vtkPolyData
-
         points, offsets, connectivity = read_off(file, shown)
         polydata = vtkPolyData()
         polydata.SetPoints(vtk_points(points))
@@ -176,10 +174,6 @@ def _read_plain(file: Path, suffix: str, shown: Path, compression: str) -> Mesh:
 
 
 def _vtk_read(module: str, name: str, file: Path, shown: Path):
-    import importlib
-
-    from algorithms.common.vtk_bridge import VTKError, run_algorithm
-
     reader = getattr(importlib.import_module(f"vtkmodules.{module}"), name)()
     reader.SetFileName(str(file))
     try:
@@ -193,8 +187,6 @@ def _vtk_read(module: str, name: str, file: Path, shown: Path):
 
 
 def _cells(cell_array) -> tuple[np.ndarray, np.ndarray]:
-    from algorithms.common.vtk_bridge import cell_arrays
-
     if cell_array is None or cell_array.GetNumberOfCells() == 0:
         return np.zeros(1, dtype=np.int64), np.empty(0, dtype=np.int64)
     offsets, connectivity = cell_arrays(cell_array)
@@ -203,9 +195,6 @@ def _cells(cell_array) -> tuple[np.ndarray, np.ndarray]:
 
 def _finish(polydata, shown: Path, label: str, warn: list[str]) -> Mesh:
     """Validate VTK's output and reduce it to merged points and proper triangles."""
-    from algorithms.common.vtk_bridge import polydata_from_arrays
-    from vtkmodules.util import numpy_support
-
     count = polydata.GetNumberOfPoints()
     if count == 0 or polydata.GetPoints() is None:
         raise MeshReadError(shown, "the file holds no points")
@@ -250,7 +239,6 @@ def _finish(polydata, shown: Path, label: str, warn: list[str]) -> Mesh:
 
 
 def _triangulate(polydata, shown: Path):
-    from algorithms.common.vtk_bridge import VTKError, run_algorithm
     from vtkmodules.vtkFiltersCore import vtkTriangleFilter
 
     triangles = vtkTriangleFilter()

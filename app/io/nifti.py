@@ -18,6 +18,7 @@ MINC 2 files are HDF5 and need h5py (a dependency).
 from __future__ import annotations
 
 import gzip
+import sys
 import threading
 import warnings
 import zlib
@@ -52,8 +53,6 @@ def _nibabel():
     other threads (the window, Dask workers) one of them could import pydicom during those milliseconds and fail,
     so there nibabel is imported as it is.
     """
-    import sys
-
     if "nibabel" in sys.modules or "pydicom" in sys.modules or threading.active_count() > 1:
         import nibabel
 

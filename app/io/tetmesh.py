@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import __version__
 from .atomic import atomic_outputs, sidecar_json
 from .errors import FileExistsRefusal, VolumeWriteError
 
@@ -75,8 +76,6 @@ def write_tetmesh(mesh, path, *, overwrite: bool = False, sidecar: dict[str, Any
 def tetmesh_provenance(volume, result, *, output: Path) -> dict[str, Any]:
     """The sidecar: software, source, isovalue, method and its parameters (h, alphas), coordinates, the quality
     report, counts and timings."""
-    from .. import __version__
-
     return {
         "software": f"Voxelscope {__version__}",
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 import numpy as np
+from vtkmodules.util import numpy_support
 
 from algorithms.common.camera import Camera
 from algorithms.common.progress import ProgressCallback, scaled
@@ -68,8 +69,6 @@ def surface_distance(item, test: "Mode", reference: "Mode", iso: float, *, optio
     ``mean_mm`` (mean symmetric surface distance) and ``p95_mm`` (95th percentile of the test-to-reference
     distances).
     """
-    from vtkmodules.util import numpy_support
-
     from algorithms.compare.measures import distance_to_surface
     from algorithms.compare.triangles import surface_arrays
 

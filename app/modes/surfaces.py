@@ -15,6 +15,13 @@ from dataclasses import dataclass
 from typing import Any, Callable, Mapping
 
 import numpy as np
+from vtkmodules.util.numpy_support import numpy_to_vtk, get_numpy_array_type
+from vtkmodules.vtkCommonDataModel import vtkImageData
+
+from algorithms.common.progress import report, scaled
+from algorithms.common.vtk_bridge import image_from_array, run_algorithm
+from algorithms.surfaces import tower, voxel_faces
+from algorithms.surfaces.marching_cubes import MarchingCubesFilter, count_triangles
 
 from ..pipeline.content import IGNORE, REBUILD, ViewInputs
 from ..pipeline.lit_surfaces import LitContent, SurfaceResult, format_bytes, polydata_stats
@@ -51,8 +58,6 @@ class SurfaceMode(Mode):
 
         ``stride`` > 1 uses the mode's coarse path (every ``stride``-th sample); a mode without one refuses.
         """
-        from algorithms.common.vtk_bridge import run_algorithm
-
         if not np.isfinite(iso):
             raise ValueError(f"the isovalue must be a finite number, got {iso}")
         if int(stride) != stride or stride < 1:
@@ -101,9 +106,6 @@ class SurfaceContent(LitContent):
             return self.mode.extract(inputs.item, inputs.iso, stride=max(stride, 1), options=self.options,
                                      progress=progress)
         # The surface of the data minus the tools, capped at the cut (the CSG difference of source 002, 3.3.1).
-        import time
-
-        from algorithms.common.progress import scaled
 
         from ..cutaways import cut_for_surface
 
@@ -149,9 +151,6 @@ class SurfaceContent(LitContent):
 def shared_image(volume):
     """A ``vtkImageData`` of a :class:`~app.volume.Volume` in its volume frame (origin 0, identity direction) on the
     volume's own memory: extracting the surface of a large volume does not hold its samples twice."""
-    from vtkmodules.util.numpy_support import numpy_to_vtk
-    from vtkmodules.vtkCommonDataModel import vtkImageData
-
     array = np.ascontiguousarray(volume.array)
     nz, ny, nx = array.shape
     image = vtkImageData()
@@ -169,10 +168,6 @@ _WARM: set[tuple[str, str]] = set()
 def _warm_up(mode: SurfaceMode, options, image) -> float:
     """Run ``mode``'s filter once on a tiny volume of the image's type so numba compiles (or loads its cache) before
     the timed run; returns the seconds it took (0 once warm)."""
-    from algorithms.common.vtk_bridge import image_from_array, run_algorithm
-
-    from vtkmodules.util.numpy_support import get_numpy_array_type
-
     scalars = image.GetPointData().GetScalars()
     dtype = np.dtype(get_numpy_array_type(scalars.GetDataType()) if scalars is not None else np.float32).name
     key = (mode.name, dtype)
@@ -207,8 +202,6 @@ def _vtk_contour(class_name: str):
 
 
 def _marching_cubes(options, iso: float, stride: int):
-    from algorithms.surfaces.marching_cubes import MarchingCubesFilter
-
     algorithm = MarchingCubesFilter()
     algorithm.SetValue(0, iso)
     algorithm.SetStride(stride)
@@ -218,8 +211,6 @@ def _marching_cubes(options, iso: float, stride: int):
 
 def _voxel_filter(class_name: str):
     def make(options, iso: float, stride: int):
-        from algorithms.surfaces import tower, voxel_faces
-
         module = voxel_faces if class_name == "VoxelFacesFilter" else tower
         algorithm = getattr(module, class_name)()
         algorithm.SetThreshold(iso)
@@ -232,8 +223,6 @@ def _voxel_filter(class_name: str):
 
 def _marching_cubes_count(array, iso: float, stride: int, progress) -> int:
     """Our marching cubes' counting pass: exact for ours, within the ambiguous cells for VTK's case table."""
-    from algorithms.surfaces.marching_cubes import count_triangles
-
     return count_triangles(array, iso, stride=stride, progress=progress)
 
 
@@ -246,8 +235,6 @@ def _cell_bound(shape) -> int:
 def _visible_face_count(array, iso: float, stride: int, progress) -> int:
     """Two triangles per visible voxel face (voxels at or above ``iso``; outside the volume counts as empty),
     counted slab by slab so no array of the volume's size is made."""
-    from algorithms.common.progress import report
-
     if stride != 1:
         raise ValueError("voxel surfaces are extracted at full resolution only (stride 1)")
     nz = array.shape[0]

@@ -25,9 +25,13 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
+from vtkmodules.util import numpy_support
+from vtkmodules.vtkCommonDataModel import vtkPlane, vtkImageData
 
+from algorithms.common.mesh import TetMesh
 from algorithms.common.progress import scaled
 
+from ..operations.tetrahedra import TetResult, tetrahedralise
 from ..pipeline.content import IGNORE, REBUILD, REDRAW, ViewContent, ViewInputs
 from . import get_mode, register_mode
 from .base import Capabilities, Mode, Option
@@ -114,10 +118,7 @@ def clip_plane(options: Mapping[str, Any], bounds) -> tuple[np.ndarray, np.ndarr
 
 def tetrahedra_for(item, method: str, iso: float, options: Mapping[str, Any], progress=None):
     """The :class:`~app.operations.tetrahedra.TetResult` of ``item`` by ``method`` (cached)."""
-    from ..operations.tetrahedra import TetResult, tetrahedralise  # heavy: the stuffing kernels
-
     if item.kind == "tetmesh":
-        from algorithms.common.mesh import TetMesh
         from algorithms.compare.tet_quality import min_max_dihedral, quality_report
 
         key = ("item", id(item), item.grid.GetMTime())
@@ -160,7 +161,6 @@ class ClippedTets:
     tetrahedra, not a slice), coloured by their smallest dihedral angle."""
 
     def __init__(self, grid, plane, offset=(0.0, 0.0, 0.0), scale: float = 1.0, centre=(0.0, 0.0, 0.0)) -> None:
-        from vtkmodules.vtkCommonDataModel import vtkPlane
         from vtkmodules.vtkFiltersExtraction import vtkExtractGeometry
         from vtkmodules.vtkFiltersGeometry import vtkDataSetSurfaceFilter
         from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper
@@ -214,8 +214,6 @@ class ClippedTets:
 
 def _everything():
     """An implicit function negative everywhere (keeps every cell)."""
-    from vtkmodules.vtkCommonDataModel import vtkPlane
-
     plane = vtkPlane()
     plane.SetOrigin(0.0, 0.0, 1e30)
     plane.SetNormal(0.0, 0.0, 1.0)
@@ -227,8 +225,6 @@ def histogram_actor(result, title: str, corner: str = "left", viewport=(512, 512
     # An off-screen figure of its own (no pyplot: the window's process keeps whatever back end it has).
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from vtkmodules.util import numpy_support
-    from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkRenderingCore import vtkActor2D, vtkImageMapper
 
     histogram = result.quality.get("histogram")

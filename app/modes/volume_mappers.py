@@ -19,6 +19,10 @@ import time
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+import numpy as np
+
+from algorithms.references.vtk_selection import mask_image
+
 from ..pipeline.content import IGNORE, REDRAW, ViewContent, ViewInputs
 from ..pipeline.props import volume_prop
 from . import register_mode
@@ -53,8 +57,6 @@ class VolumeMapperContent(ViewContent):
 
     def _apply_tools(self, inputs: ViewInputs) -> None:
         """Give the mapper the tools as a mask on its grid (GPU) or a masked copy of the volume (CPU)."""
-        import numpy as np
-
         from algorithms.common.selection import removal_field
 
         mapper = self.volume.GetMapper()
@@ -71,8 +73,6 @@ class VolumeMapperContent(ViewContent):
             return
         kept = removal_field(tools, volume.array.shape, volume.spacing) >= 0
         if self.mode.mapper == "gpu":
-            from algorithms.references.vtk_selection import mask_image
-
             mapper.SetMaskInput(mask_image(kept, volume.spacing))
             mapper.SetMaskTypeToBinary()
             self.stats["cut"] = "binary mask on the mapper's grid"

@@ -24,12 +24,13 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from algorithms.common.progress import ProgressCallback
+from algorithms.common.grid import Grid
+from algorithms.common.progress import ProgressCallback, report, scaled
 
 from ..options import Option
 from . import register_operation
 from .base import Input, Operation, OperationResult
-from .voxelise import DEFAULT_GRID, checked_mesh, parse_spacing
+from .voxelise import DEFAULT_GRID, _check_grid, checked_mesh, output_grid, parse_spacing
 
 #: Bytes per voxel while a distance field is made: values, nearest triangle, mask, and the written copy.
 BYTES_PER_VOXEL = 16
@@ -68,8 +69,6 @@ def mesh_distance(mesh_item, grid, *, band: str, outside: str, inside: str, prog
     """A mesh item's signed distance field on ``grid``: ``(DistanceField, report dict)``."""
     from algorithms.fields.distance import signed_distance
 
-    from .voxelise import _check_grid
-
     points, triangles, _, facts, warnings = checked_mesh(mesh_item, inside, "so it has no distance field")
     warnings = warnings + _check_grid(mesh_item.name, grid, points, None)
     _check_memory(grid, f"the distance field of {mesh_item.name}")
@@ -103,8 +102,6 @@ class Distance(Operation):
         parse_spacing(options.get("spacing"))
 
     def run(self, items: Mapping[str, Any], options: Mapping[str, Any], *, progress=None) -> OperationResult:
-        from .voxelise import output_grid
-
         self.check_inputs(items)
         mesh_item, like = items["mesh"], items.get("like")
         grid = output_grid(mesh_item.bounds, like, grid=options["grid"], spacing=options["spacing"],
@@ -150,8 +147,6 @@ def _field_values(item, grid, options, progress) -> tuple[np.ndarray, dict]:
 
 def common_grid(items, like, options):
     """The grid of a CSG (see the module notes)."""
-    from algorithms.common.grid import Grid
-
     spacing = parse_spacing(options.get("spacing"))
     if like is not None:
         return like.volume.grid, f"like {like.name}"
@@ -174,7 +169,6 @@ class Csg(Operation):
         parse_spacing(options.get("spacing"))
 
     def run(self, items: Mapping[str, Any], options: Mapping[str, Any], *, progress=None) -> OperationResult:
-        from algorithms.common.progress import scaled
         from algorithms.fields.csg import combine
 
         self.check_inputs(items)
@@ -228,7 +222,6 @@ def mesh_field(values: np.ndarray, grid, *, offset_mm: float = 0.0,
     Always closed: the field is padded by one voxel of "outside" first, so a solid cut by the grid's border gets a
     cap within one voxel outside the grid instead of an open rim.
     """
-    from algorithms.common.progress import report
     from algorithms.fields.csg import negated_padded
     from algorithms.surfaces.marching_cubes import marching_cubes
 

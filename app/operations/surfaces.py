@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ..modes import mode_names
+from ..modes import get_mode, mode_names
 from ..options import Option
 from . import register_operation
 from .base import Input, Operation, OperationResult
@@ -17,7 +17,6 @@ class ExtractSurface(Operation):
     def run(self, items: Mapping[str, Any], options: Mapping[str, Any], *, progress=None) -> OperationResult:
         from ..meshing import EmptySurfaceError, check_isovalue, merge_duplicate_points, to_world
         from ..volume import default_iso
-        from ..modes import get_mode
         from ..scene import MeshItem
 
         source = items["volume"]

@@ -14,6 +14,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from algorithms.common.progress import scaled
+
 from ..options import Option
 from . import register_operation
 from .base import Input, Operation, OperationResult
@@ -86,7 +88,6 @@ def tetrahedralise(source, *, method: str = "stuffing", iso: float | None = None
     ``method`` is one of :data:`METHODS`; ``h`` (mm, default :func:`default_h`) and ``alpha`` apply to stuffing. ``conformity`` adds the face and boundary checks to the quality report (slower on large meshes).
     """
     from algorithms.compare.tet_quality import min_max_dihedral, quality_report
-    from algorithms.common.progress import scaled
 
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")

@@ -15,6 +15,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from algorithms.common.grid import Grid
+
 from ..options import Option
 from . import register_operation
 from .base import Input, Operation, OperationResult
@@ -127,8 +129,6 @@ def _mesh_volume(points, triangles, facts) -> tuple[float | None, str]:
 
 def output_grid(mesh_bounds, like=None, *, grid: int | None = None, spacing=None, padding: int = 2):
     """The grid a mask is made on (see the module notes)."""
-    from algorithms.common.grid import Grid
-
     spacing = parse_spacing(spacing)
     if like is not None:
         if grid is not None or spacing is not None:

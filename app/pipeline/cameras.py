@@ -16,6 +16,8 @@ import numpy as np
 
 from algorithms.common.camera import Camera
 
+from ..volume import Volume
+
 DEFAULT_VIEW_ANGLE = 30.0
 
 #: Camera presets in LPS: name -> (direction of projection, view up). "anterior" looks at the patient's face.
@@ -78,8 +80,6 @@ def default_camera(item, **kwargs) -> Camera:
 
     A volume is framed by its box including the voxels' own extent (so a one-voxel rim is not clipped).
     """
-    from ..volume import Volume
-
     volume = item if isinstance(item, Volume) else getattr(item, "volume", None)
     if volume is not None:
         radius = 0.5 * float(np.linalg.norm(np.asarray(volume.dimensions) * np.asarray(volume.spacing)))

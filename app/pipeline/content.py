@@ -25,6 +25,8 @@ import numpy as np
 
 from algorithms.common.camera import Camera
 
+from .props import default_sample_distance, show_background_image
+
 if TYPE_CHECKING:  # pragma: no cover
     from ..modes.base import Mode
     from ..scene import Item
@@ -79,8 +81,6 @@ class ViewInputs:
         return [tool for tool in self.tools if tool.visible]
 
     def effective_sample_distance(self) -> float:
-        from .props import default_sample_distance
-
         return self.sample_distance if self.sample_distance is not None else default_sample_distance(self.volume)
 
 
@@ -166,8 +166,6 @@ class ViewContent(ABC):
 
     def show_frame(self, renderer, frame: Frame) -> None:
         """Put a finished frame on ``renderer``."""
-        from .props import show_background_image
-
         show_background_image(renderer, frame.image)
 
     def close(self) -> None:

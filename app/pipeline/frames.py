@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from vtkmodules.util import numpy_support
 
 from algorithms.common.camera import Camera
 from algorithms.common.vtk_bridge import run_algorithm
@@ -45,8 +46,6 @@ def filter_frame(algorithm, camera: Camera, size: tuple[int, int], background, p
                  pass_index: int = 0) -> Frame:
     """Run a renderer filter for one camera (its input's frame), size and jitter pass; the frame over
     ``background``."""
-    from vtkmodules.util import numpy_support
-
     algorithm.SetCamera(camera)
     algorithm.SetImageSize(*size)
     algorithm.SetPassIndex(pass_index)

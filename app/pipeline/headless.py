@@ -23,6 +23,8 @@ import numpy as np
 from algorithms.common.camera import Camera
 from algorithms.common.progress import ProgressCallback
 
+from ..transfer import transfer_function_for
+from ..volume import default_iso
 from .cameras import default_camera, turning_cameras
 from .content import ViewInputs
 from .jobs import ImmediateRunner
@@ -76,15 +78,11 @@ def view_inputs(item, *, iso=None, preset=None, shading=None, sample_distance=No
     that is not given at 0 instead of working out the default (which imports the meshing code and, for volumes not
     in HU, takes a percentile pass over the data).
     """
-    from ..transfer import transfer_function_for
-
     volume = getattr(item, "volume", None)
     function = transfer_function_for(volume, preset, shading=shading) if volume is not None else None
     if iso is None:
         iso = getattr(item, "iso", None) if volume is not None and hasattr(item, "role") else None
         if iso is None and volume is not None and uses_iso:
-            from ..volume import default_iso
-
             iso = default_iso(volume)
     return ViewInputs(item, float(iso if iso is not None else 0.0), function, sample_distance, tuple(background),
                       interactive)

@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from vtkmodules.util import numpy_support
+
 from .content import ViewContent
 from .props import SurfaceLighting
 
@@ -36,8 +38,6 @@ def polydata_stats(polydata) -> dict[str, int]:
     32-bit index per connectivity entry of polygons and strips. Methods with their own accounting (the tower
     algorithm stores strips without indices, as its source does) override ``bytes`` in their own statistics.
     """
-    from vtkmodules.util import numpy_support
-
     triangles = connectivity = strip_count = 0
     for cells, is_strips in ((polydata.GetPolys(), False), (polydata.GetStrips(), True)):
         if cells is None or not cells.GetNumberOfCells():

@@ -17,10 +17,14 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
+from vtkmodules.util import numpy_support
+from vtkmodules.vtkCommonDataModel import vtkImageData
 
 from algorithms.common.camera import Camera
+from algorithms.common.vtk_bridge import run_algorithm
 
 from ..io.atomic import atomic_output
+from .props import volume_prop
 
 DEFAULT_SIZE = (512, 512)
 
@@ -80,7 +84,6 @@ class OffscreenScene:
 
     def capture(self) -> np.ndarray:
         """The last rendered frame as ``(height, width, 3)`` uint8, row 0 at the top."""
-        from vtkmodules.util import numpy_support
         from vtkmodules.vtkRenderingCore import vtkWindowToImageFilter
 
         grabber = vtkWindowToImageFilter()
@@ -243,8 +246,6 @@ class FrameScene:
 
 def write_png(image: np.ndarray, path, *, overwrite: bool = False) -> Path:
     """Write an ``(h, w, 3|4)`` uint8 image (row 0 at the top) as PNG, atomically."""
-    from vtkmodules.util import numpy_support
-    from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkIOImage import vtkPNGWriter
 
     path = Path(path).expanduser()
@@ -268,10 +269,7 @@ def write_png(image: np.ndarray, path, *, overwrite: bool = False) -> Path:
 
 def read_png(path) -> np.ndarray:
     """A PNG as ``(h, w, channels)`` uint8, row 0 at the top."""
-    from vtkmodules.util import numpy_support
     from vtkmodules.vtkIOImage import vtkPNGReader
-
-    from algorithms.common.vtk_bridge import run_algorithm
 
     reader = vtkPNGReader()
     reader.SetFileName(str(path))
@@ -286,8 +284,6 @@ def render_vtk_volume(volume, camera: Camera, transfer_function, *, mapper: str 
                       size: Sequence[int] = DEFAULT_SIZE, sample_distance: float | None = None,
                       shading: bool | None = False, background=(0.0, 0.0, 0.0)) -> np.ndarray:
     """One off-screen frame of VTK's GPU or CPU ray caster as ``(h, w, 3)`` uint8 (row 0 at the top)."""
-    from .props import volume_prop
-
     scene = OffscreenScene(size, background)
     try:
         scene.add(volume_prop(volume, transfer_function, mapper=mapper, sample_distance=sample_distance,

@@ -8,8 +8,12 @@ on screen and in a PNG.
 from __future__ import annotations
 
 import numpy as np
+from vtkmodules.util import numpy_support
+from vtkmodules.vtkCommonCore import vtkLookupTable
+from vtkmodules.vtkCommonDataModel import vtkImageData
 
 from algorithms.common.vtk_bridge import vtk_matrix
+from algorithms.references.vtk_volume_mappers import volume_prop as vtk_volume_prop
 
 SURFACE_MATERIAL = {"ambient": 0.15, "diffuse": 0.8, "specular": 0.2, "specular_power": 20.0}
 
@@ -218,7 +222,6 @@ def difference_colors(tolerance: float):
     """The colours of an image-difference heat map as a VTK lookup table: matplotlib's "inferno" from 0 (black) to
     twice ``tolerance`` (pale yellow), in fractions of full scale, larger differences as the top colour."""
     from matplotlib import colormaps
-    from vtkmodules.vtkCommonCore import vtkLookupTable
 
     top = 2.0 * tolerance
     table = vtkLookupTable()
@@ -249,8 +252,6 @@ def volume_prop(volume, transfer_function, *, mapper: str = "gpu", sample_distan
 
     ``image`` may pass an already converted ``volume.to_vtk(local=True)`` to share it between views.
     """
-    from algorithms.references.vtk_volume_mappers import volume_prop as vtk_volume_prop
-
     step = sample_distance if sample_distance is not None else default_sample_distance(volume)
     if not step > 0:
         raise ValueError(f"sample distance must be positive (mm), got {step}")
@@ -265,8 +266,6 @@ def show_background_image(renderer, image: np.ndarray):
     This is how our software renderers' frames reach the screen: the camera stays VTK's, so interaction, linking and
     overlays work as for every other view.
     """
-    from vtkmodules.util import numpy_support
-    from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkRenderingCore import vtkTexture
 
     height, width = image.shape[:2]

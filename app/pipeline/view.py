@@ -30,6 +30,8 @@ from algorithms.common.camera import Camera
 from ..events import Signal
 from .content import REBUILD, REDRAW, REFRAME, Frame, ViewContent, ViewInputs
 from .jobs import JobRunner
+from .props import surface_actor, clear_background_image
+from .timing import Timing
 
 PREVIEW_SCALE = 3  # software renderers draw 1/3 of the pixels per side while the camera moves
 MIN_FRAME_PIXELS = 8
@@ -130,8 +132,6 @@ class ViewPipeline:
     def set_overlays(self, items) -> None:
         """Show other items of the scene beside the content: meshes as translucent surfaces (patient coordinates).
         Items of other kinds are not drawn as overlays."""
-        from .props import surface_actor
-
         for actor in self._overlays:
             self.renderer.RemoveActor(actor)
         self._overlays = [surface_actor(item.polydata, None, color=(0.55, 0.75, 0.95), opacity=0.6)
@@ -230,7 +230,6 @@ class ViewPipeline:
         if self.content is not None:
             self.content.remove(self.renderer)
             self.content.close()
-        from .props import clear_background_image
 
         clear_background_image(self.renderer)
         accepted = self.mode.input
@@ -417,8 +416,6 @@ class ViewPipeline:
             width, height = self.last_frame.size
             parts.append(f"{width}x{height} px" + ("" if self._frame_full else " (preview)"))
         if self._frame_times:
-            from .timing import Timing
-
             times = list(self._frame_times)
             parts.append(f"frame {times[-1] * 1000:.0f} ms (weighted mean {Timing(times).weighted_mean * 1000:.0f} ms)")
         self.status.emit(" | ".join(parts))

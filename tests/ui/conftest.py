@@ -25,16 +25,33 @@ def small_ct_file(tmp_path_factory):
 
 
 @pytest.fixture
-def window(qtbot, settings):
+def make_window(qtbot, settings):
+    """Windows made by the test (``make_window(settings=None, show=True, size=(1200, 800))``; ``size=None`` keeps the
+    size the window restores), each deleted after the test, C++ side first (:func:`ui.lifetime.delete_now`), as the
+    application deletes its window."""
+    from ui.lifetime import delete_now
     from ui.main_window import MainWindow
 
-    main = MainWindow(settings=settings)
-    qtbot.addWidget(main)
-    main.resize(1200, 800)
-    main.show()
-    qtbot.waitExposed(main)
-    yield main
-    main.close()
+    made = []
+
+    def make(settings_=None, *, show=True, size=(1200, 800)):
+        main = MainWindow(settings=settings if settings_ is None else settings_)
+        made.append(main)
+        if size is not None:
+            main.resize(*size)
+        if show:
+            main.show()
+            qtbot.waitExposed(main)
+        return main
+
+    yield make
+    for main in reversed(made):
+        delete_now(main)
+
+
+@pytest.fixture
+def window(make_window):
+    return make_window()
 
 
 def open_and_wait(qtbot, window, path, timeout=120_000):

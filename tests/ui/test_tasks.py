@@ -193,3 +193,26 @@ def test_the_window_frees_cycles_on_the_gui_thread_only(qtbot, window):
     qtbot.waitUntil(lambda: bool(freed_on), timeout=10_000)
     assert freed_on == [threading.main_thread().name]
     del result
+
+
+def test_a_window_is_deleted_c_plus_plus_side_first_and_the_next_one_is_unharmed(qtbot, make_window):
+    """:func:`ui.lifetime.delete_now` deletes the window and every child widget (the views' interactors among them)
+    while their Python wrappers are still held, so the collector later frees plain Python objects; a window made
+    right after shows, resizes and draws."""
+    from qtpy import shiboken
+
+    from ui.lifetime import delete_now
+
+    first = make_window()
+    held = [first, *first.views, *(view.plotter for view in first.views), *first.slice_views.values()]
+    assert all(shiboken.isValid(widget) for widget in held)
+    delete_now(first)
+    assert not any(shiboken.isValid(widget) for widget in held)
+    delete_now(first)  # a second call leaves the deleted window alone
+    del held, first
+    second = make_window()
+    second.resize(900, 700)
+    qtbot.wait(50)
+    assert all(shiboken.isValid(view.plotter) for view in second.views)
+    frame = second.views[0].capture()
+    assert frame.shape[0] > 0 and frame.shape[1] > 0

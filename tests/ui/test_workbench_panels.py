@@ -53,16 +53,12 @@ def test_undo_and_redo_of_a_transfer_function_drag(qtbot, window, small_ct_file)
     assert window.model.iso == 300.0 and window.model.preset == "ct-bone"
 
 
-def test_session_saved_and_reopened_after_a_restart(qtbot, tmp_path, settings, small_ct_file):
+def test_session_saved_and_reopened_after_a_restart(qtbot, tmp_path, make_window, small_ct_file):
     from qtpy.QtCore import QSettings
 
-    from ui.main_window import MainWindow
+    from ui.lifetime import delete_now
 
-    first = MainWindow(settings=settings)
-    qtbot.addWidget(first)
-    first.resize(1200, 800)
-    first.show()
-    qtbot.waitExposed(first)
+    first = make_window()
     from app.io import save_volume
     from app.scene import FieldItem
 
@@ -99,12 +95,9 @@ def test_session_saved_and_reopened_after_a_restart(qtbot, tmp_path, settings, s
     pose = (camera.GetPosition(), camera.GetFocalPoint(), camera.GetViewUp())
     views_before = first.grab_views()
     session = first.save_session(tmp_path / "work.voxelscope.json")
-    first.close()
+    delete_now(first)  # as the application ends: closed, then deleted
 
-    second = MainWindow(settings=QSettings(str(tmp_path / "other.ini"), QSettings.IniFormat))  # a fresh start
-    qtbot.addWidget(second)
-    second.show()
-    qtbot.waitExposed(second)
+    second = make_window(QSettings(str(tmp_path / "other.ini"), QSettings.IniFormat), size=None)  # a fresh start
     with qtbot.waitSignal(second.session_opened, timeout=120_000):
         assert second.open_session(session)
     wait_ready(qtbot, second)
@@ -136,16 +129,13 @@ def test_session_saved_and_reopened_after_a_restart(qtbot, tmp_path, settings, s
     second.close()
 
 
-def test_the_default_views_change_only_when_asked(qtbot, settings):
+def test_the_default_views_change_only_when_asked(make_window):
     """A run that picks its own modes (``voxelscope gui --modes``, a session) leaves the next start's layout and
     modes alone; View > Use these views as the default changes them."""
-    from ui.main_window import MainWindow
     from app.workbench import DEFAULT_MODES
 
     def start():
-        window = MainWindow(settings=settings)
-        qtbot.addWidget(window)
-        return window
+        return make_window(show=False, size=None)
 
     first = start()
     first.model.set_layout("1x2")

@@ -18,9 +18,10 @@ never blocks the rest of a folder; pydicom's own warnings are collected into the
 
 from __future__ import annotations
 
+from .headers import SliceHeader, read_header
 from .multiframe import read_multiframe
 from .pixels import decode_pixels
-from .scan import FolderScan, SeriesInfo, SliceHeader, is_dicom_file, list_series, read_header, scan_folder
+from .scan import FolderScan, SeriesInfo, is_dicom_file, list_series, scan_folder
 from .series import read_dicom_file, read_dicom_series
 from .stack import MAX_INTERPOLATED_SLICES
 from .write import write_dicom_series

@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .scan import ElementError, SliceHeader, number
+from .headers import ElementError, SliceHeader, number
 
 
 @dataclass(frozen=True)

@@ -17,9 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ...volume import Volume
 from ..errors import CorruptFileError, DicomSeriesError
+from .headers import ElementError, SliceHeader, element, float_list, number, rescale, study_fields, text, vector
 from .pixels import decode_pixels, store, units
-from .scan import ElementError, SliceHeader, element, float_list, number, rescale, study_fields, text, vector
 
 #: Tolerance on frame spacing regularity of legacy multi-frame files, as a fraction of the median spacing.
 SPACING_TOLERANCE = 0.01
@@ -95,8 +96,6 @@ def enhanced_frames(header: SliceHeader, dataset) -> list[SliceHeader]:
 
 def read_multiframe(path):
     """Read a legacy multi-frame DICOM file (RT dose, NM, ...) as a volume."""
-    from ...volume import Volume
-
     path = Path(path)
     pixels, dataset = decode_pixels(path)
     try:

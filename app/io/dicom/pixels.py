@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import CorruptFileError, MissingDecoderError
 from ..safety import one_line, require_fits
+from .headers import ElementError, number
 
 _DECODER_HINTS = {
     "1.2.840.10008.1.2.4.50": "pillow or pylibjpeg-libjpeg",
@@ -99,8 +100,6 @@ def _decode(pydicom, path: Path, dataset) -> tuple[np.ndarray, Any]:
 
 def _require_pixel_memory(path: Path, dataset) -> None:
     """Refuse declared image sizes that would not fit in memory before a decoder allocates them."""
-    from .scan import ElementError, number
-
     try:
         size = (number(dataset, "Rows", 0, kind=int) * number(dataset, "Columns", 0, kind=int)
                 * (number(dataset, "NumberOfFrames", 1, kind=int) or 1) * (number(dataset, "SamplesPerPixel", 1, kind=int) or 1)

@@ -7,10 +7,12 @@ from typing import Callable
 
 import numpy as np
 
+from ...volume import Volume
 from ..errors import DicomSeriesError
+from .headers import read_header, study_fields
 from .multiframe import read_multiframe
 from .pixels import store
-from .scan import FolderScan, SeriesInfo, choose_series, read_header, scan_files, scan_folder, study_fields
+from .scan import FolderScan, SeriesInfo, choose_series, scan_files, scan_folder
 from .stack import (
     SliceFrame,
     choose_volume,
@@ -71,8 +73,6 @@ def read_dicom_file(path, *, series_uid=None, irregular="resample", allow_gaps=F
 
 
 def _read(scan: FolderScan, folder: Path, series_uid, irregular, allow_gaps, volume_index, progress):
-    from ...volume import Volume
-
     if irregular not in ("resample", "error"):
         raise ValueError(f"irregular must be 'resample' or 'error', got {irregular!r}")
     warn = scan.warnings()

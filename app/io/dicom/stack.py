@@ -28,8 +28,8 @@ import numpy as np
 
 from ..errors import CorruptFileError, DicomSeriesError, MissingDecoderError
 from ..safety import require_fits
+from .headers import SliceHeader
 from .pixels import decode_pixels, units
-from .scan import SliceHeader
 
 #: Tolerance on slice spacing regularity, as a fraction of the median spacing.
 SPACING_TOLERANCE = 0.01

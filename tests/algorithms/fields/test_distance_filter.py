@@ -9,7 +9,7 @@ from algorithms.common.grid import Grid
 from algorithms.common.vtk_bridge import VTKError, array_from_image, polydata_from_arrays, run_algorithm
 from algorithms.fields.csg import combine
 from algorithms.fields.distance import signed_distance
-from algorithms.fields.distance_filter import CsgFilter, DistanceFieldFilter
+from algorithms.fields.distance import CsgFilter, DistanceFieldFilter
 
 from ._voxelise_shapes import sphere
 

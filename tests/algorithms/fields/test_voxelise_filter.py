@@ -9,7 +9,7 @@ from algorithms.common.grid import Grid
 from algorithms.common.progress import OperationCancelled
 from algorithms.common.vtk_bridge import VTKError, array_from_image, direction_matrix, polydata_from_arrays, run_algorithm
 from algorithms.fields.voxelise import VoxeliseFilter, voxelise
-from algorithms.fields.voxelise_filter import grid_of_image, image_on_grid
+from algorithms.fields.voxelise import grid_of_image, image_on_grid
 
 from ._voxelise_shapes import rotation, torus
 

@@ -12,7 +12,7 @@ s`` the normal; ``a = |v1 - o|``, ``b = |v0 - o|``, ``h = |v2 - o|``. ``frames[t
 Polytopes (the regions scanned for a triangle): kind 0, the triangle's prism (its own region, ``|t| <= d`` over the
 triangle); kind 1, the source's box (``r in [-b - d, a + d]``, ``s in [-d, h + d]``, ``t in [-d, d]``), used for
 every triangle in ``regions="box"`` and for degenerate triangles; kind 2, an edge's wedge; kind 3, a vertex's cone
-(see :mod:`._characteristics`). Each polytope is a set of half-spaces ``n . x <= c`` (an optional ball) for the
+(see :mod:`.characteristics`). Each polytope is a set of half-spaces ``n . x <= c`` (an optional ball) for the
 rows, and points whose convex hull contains it for the slices and rows it meets.
 """
 

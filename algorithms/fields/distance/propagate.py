@@ -12,7 +12,7 @@ distance to each candidate it is offered, keeping the smallest:
 
 1. **candidates**: on a grid of fewer than :data:`COARSE_FROM` voxels along some axis, the exact separable Euclidean
    distance transform of Felzenszwalb and Huttenlocher (2012; the lower envelope of parabolas, as in Meijster et al.
-   2000; :mod:`._feature_transform`), one pass per axis with the grid's own (possibly anisotropic) spacing, every
+   2000; :mod:`.feature_transform`), one pass per axis with the grid's own (possibly anisotropic) spacing, every
    line in parallel, gives every voxel its *nearest band voxel* ``w`` (exact, ties aside), and the voxel measures its
    distance to ``w``'s nearest triangle (O(N)). On larger grids the whole propagation runs first on every second
    voxel (recursively), and each voxel measures the triangles of the (up to 8) coarse voxels around it; a voxel whose
@@ -70,10 +70,10 @@ import time
 import numpy as np
 from numba import get_num_threads, njit, prange
 
-from ..common.atomics import take
-from ..common.progress import ProgressCallback, report, scaled
-from ._distance_kernels import frame_feature, point_triangle_distance2
-from ._feature_transform import feature_columns, feature_rows, feature_slices
+from ...common.atomics import take
+from ...common.progress import ProgressCallback, report, scaled
+from .kernels import frame_feature, point_triangle_distance2
+from .feature_transform import feature_columns, feature_rows, feature_slices
 
 __all__ = ["propagate"]
 
@@ -438,7 +438,7 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
               progress: ProgressCallback = None) -> dict:
     """Fill ``best`` (squared mm, float32) and ``nearest`` (int32) outside the band, in place (see the module notes).
 
-    ``mesh`` is a :class:`.distance.MeshFrames`; voxels with ``best <= band_mm**2`` (and a triangle) are exact and
+    ``mesh`` is a :class:`.core.MeshFrames`; voxels with ``best <= band_mm**2`` (and a triangle) are exact and
     kept. Each voxel outside the band first gets candidate triangles: on a grid of at least :data:`COARSE_FROM`
     voxels along every axis (and a band at least a quarter of the doubled spacing), those of the propagation on
     every second voxel (recursively); otherwise the triangle of its nearest band voxel (the feature transform).
@@ -483,7 +483,7 @@ def propagate(best: np.ndarray, nearest: np.ndarray, mesh, spacing, band_mm: flo
     else:
         if n_seeds == 0:
             # no voxel within the band: seed the grid's centre voxel with its exact nearest triangle (brute force)
-            from ._distance_kernels import distances_to_mesh
+            from .kernels import distances_to_mesh
 
             k, j, i = (n // 2 for n in best.shape)
             out2, which = np.empty(1), np.empty(1, dtype=np.int64)

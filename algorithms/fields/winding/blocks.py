@@ -2,7 +2,7 @@
 
 Used by :func:`algorithms.fields.voxelise.voxelise` with ``inside="winding"`` (see the method there): ``levels``
 holds the integer winding number ``n`` of mesh plus fans, and the mesh's own winding number is ``n - w_caps``,
-where ``w_caps`` is that of the fans (:func:`.winding.boundary_caps`). Wherever ``|w_caps| < 1/2``, ``n - w_caps
+where ``w_caps`` is that of the fans (:func:`.core.boundary_caps`). Wherever ``|w_caps| < 1/2``, ``n - w_caps
 >= 1/2`` exactly when ``n >= 1``, so only the voxels where the fans' winding number may reach 1/2 need it.
 
 A cube of voxels is skipped when the fans' winding number at its centre (the fans' tree, Barill et al.'s far-field
@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .winding import tree_solid_angle
+from .core import tree_solid_angle
 
 
 @njit(cache=True, nogil=True, forceinline=True)
@@ -141,7 +141,7 @@ def threshold_blocks(points, triangles, order, first, last, left, right, centre,
                      evaluated):
     """Threshold ``levels - w_caps`` at 1/2 inside the cubes ``blocks`` (rows ``(i0, j0, k0, size)``) where needed.
 
-    The first twelve arguments are the fans' :class:`.winding.WindingTree`; ``rims`` ``(E, 2)`` are the rim edges
+    The first twelve arguments are the fans' :class:`.core.WindingTree`; ``rims`` ``(E, 2)`` are the rim edges
     sorted by cap with CSR ``rim_start``; per cap its centre, radius and rim length; ``affine`` takes
     ``(i, j, k, 1)`` to mm. ``levels`` (int8) is changed in place; ``evaluated[b]`` receives the voxels cube ``b``
     decided one by one. Cubes must not overlap.

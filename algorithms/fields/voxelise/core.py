@@ -8,7 +8,7 @@ is the same idea on the CPU, as a scan conversion: for each slice ``k`` and each
 through the voxel centres ``(i, j, k)`` along ``i``), the crossings of the row with the mesh are found and the
 voxels between them filled, by parity (odd number of crossings before the voxel: inside). Triangles are sorted
 into the slices their bounding box meets, each triangle is tested only against the rows its box covers, and the
-slices run in parallel (numba); no Python loop over voxels or triangles. See :mod:`._voxelise_kernels`.
+slices run in parallel (numba); no Python loop over voxels or triangles. See :mod:`.kernels`.
 
 Exactness
 ---------
@@ -33,11 +33,11 @@ the end of the grid: check the mesh first (:func:`algorithms.compare.topology.ed
 
 ``"winding"``: inside where the generalised winding number (Jacobson et al. 2013) is at least 1/2, the solid a
 user expects of a mesh with small holes or self-intersections; needs outward-facing triangles. Computed exactly
-in two parts: every piece of the boundary is closed by a fan (:func:`.winding.boundary_caps`), the signed row
+in two parts: every piece of the boundary is closed by a fan (:func:`algorithms.fields.winding.boundary_caps`), the signed row
 crossings of mesh plus fans give the integer winding number ``n`` of the closed chain, and ``w = n - w_caps``.
 Where the caps' winding number is bounded below 1/2 (``|w_cap| <= area / (4 pi d^2)`` at distance ``d``), ``w >=
 1/2`` exactly when ``n >= 1``; only the voxels near the caps are evaluated by the hierarchical far-field
-approximation of Barill et al. (2018), :class:`.winding.WindingTree`. On a closed, outward mesh there are no caps
+approximation of Barill et al. (2018), :class:`algorithms.fields.winding.WindingTree`. On a closed, outward mesh there are no caps
 and winding and parity agree voxel for voxel.
 
 Frames and array order
@@ -67,11 +67,13 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from ..common.grid import Grid
-from ..common.progress import ProgressCallback, report, scaled
-from . import _voxelise_kernels as kernels
+from ...common.grid import Grid
+from ...common.progress import ProgressCallback, report, scaled
+from ..winding import WindingTree, boundary_caps
+from ..winding.blocks import threshold_blocks
+from . import kernels
 
-__all__ = ["INSIDE_RULES", "VoxelisationReport", "VoxeliseFilter", "voxelise", "voxelise_with_report", "warm_up"]
+__all__ = ["INSIDE_RULES", "VoxelisationReport", "voxelise", "voxelise_with_report", "warm_up"]
 
 #: The inside rules :func:`voxelise` offers.
 INSIDE_RULES = ("parity", "winding")
@@ -182,7 +184,7 @@ def voxelise(points, triangles, grid: Grid, *, inside: str = "parity",
 def voxelise_with_report(points, triangles, grid: Grid, *, inside: str = "parity", beta: float = 2.0,
                          progress: ProgressCallback = None) -> tuple[np.ndarray, VoxelisationReport]:
     """:func:`voxelise`, also returning a :class:`VoxelisationReport`; ``beta`` is the far-field criterion of the
-    winding tree (:meth:`.winding.WindingTree.winding_numbers`)."""
+    winding tree (:meth:`algorithms.fields.winding.WindingTree.winding_numbers`)."""
     start = time.perf_counter()
     points, triangles = _validated(points, triangles, grid, inside)
     mask = np.zeros(grid.shape, dtype=np.uint8)
@@ -192,8 +194,6 @@ def voxelise_with_report(points, triangles, grid: Grid, *, inside: str = "parity
     all_points, all_triangles = points, triangles
     caps = None
     if inside == "winding":
-        from .winding import boundary_caps
-
         caps = boundary_caps(points, triangles)
         if caps.count:
             all_points, all_triangles = caps.points, np.concatenate([triangles, caps.triangles])
@@ -298,11 +298,8 @@ def _near_caps(grid: Grid, caps, levels, beta: float, *, progress) -> int:
 
     Outside a ball of ``radius + sqrt(area / (4 pi budget))`` around each fan, ``|w| <= area / (4 pi d^2)`` keeps
     each fan's share below ``budget``; inside, cubes of voxels are examined from coarse to fine
-    (:func:`._winding_blocks.threshold_blocks`). Returns the voxels decided one by one.
+    (:func:`algorithms.fields.winding.blocks.threshold_blocks`). Returns the voxels decided one by one.
     """
-    from ._winding_blocks import threshold_blocks
-    from .winding import WindingTree
-
     budget = _CAP_BUDGET / caps.count  # each cap's share: the sum over all caps stays below 1/2 elsewhere
     reaches = caps.radius + np.sqrt(caps.area / (4.0 * math.pi * budget))
     cubes = [_cap_blocks(grid, centre, reach) for centre, reach in zip(caps.centre, reaches)]
@@ -323,5 +320,3 @@ def _near_caps(grid: Grid, caps, levels, beta: float, *, progress) -> int:
         report(progress, stop / len(blocks))
     return int(evaluated.sum())
 
-
-from .voxelise_filter import VoxeliseFilter  # noqa: E402 - the filter wraps the functions above

@@ -7,7 +7,7 @@ voxel centres are the integer points, and a *row* is the line ``y = j, z = k`` a
    (parallel over triangles).
 2. :func:`slice_buckets`: the triangles of each slice ``k`` as CSR lists (two passes: count, then fill).
 3. :func:`fill_slices`: parallel over slices; each slice tests its triangles against the rows they may meet
-   (exact orientation signs with simulation of simplicity, :mod:`._predicates`), collects the crossings
+   (exact orientation signs with simulation of simplicity, :mod:`.predicates`), collects the crossings
    ``(row, x, direction)``, sorts them by row with a counting sort and along each row by x, and fills the row:
    by parity, or with the running sum of signed crossings (the integer winding number of a closed chain).
 
@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._predicates import edge_side
+from .predicates import edge_side
 
 
 #: Index coordinates are rounded to multiples of 2^-30 voxel (see :func:`index_points`).

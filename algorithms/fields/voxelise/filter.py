@@ -15,10 +15,12 @@ from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
 from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
 from vtkmodules.vtkCommonExecutionModel import vtkAlgorithm, vtkStreamingDemandDrivenPipeline
+from vtkmodules.vtkFiltersCore import vtkTriangleFilter
 
-from ..common.grid import Grid
-from ..common.progress import OperationCancelled
-from ..common.vtk_bridge import direction_matrix, polydata_arrays, progress_for
+from ...common.grid import Grid
+from ...common.progress import OperationCancelled
+from ...common.vtk_bridge import direction_matrix, polydata_arrays, progress_for, run_algorithm
+from .core import INSIDE_RULES, voxelise_with_report
 
 _SDDP = vtkStreamingDemandDrivenPipeline
 
@@ -90,8 +92,6 @@ class VoxeliseFilter(VTKPythonAlgorithmBase):
         return self._grid
 
     def SetInside(self, rule: str) -> None:  # noqa: N802
-        from .voxelise import INSIDE_RULES
-
         if rule not in INSIDE_RULES:
             raise ValueError(f"the inside rule is one of {', '.join(INSIDE_RULES)}, got {rule!r}")
         if rule != self._inside:
@@ -138,8 +138,6 @@ class VoxeliseFilter(VTKPythonAlgorithmBase):
         return 1
 
     def RequestData(self, request, in_info, out_info):  # noqa: N802
-        from .voxelise import voxelise_with_report
-
         mesh = vtkPolyData.GetData(in_info[0], 0)
         output = vtkImageData.GetData(out_info, 0)
         grid = self._output_grid(in_info)
@@ -169,10 +167,6 @@ def _triangles_of(mesh: vtkPolyData) -> tuple[np.ndarray, np.ndarray]:
             return polydata_arrays(mesh)
         except ValueError:  # polygons other than triangles
             pass
-    from vtkmodules.vtkFiltersCore import vtkTriangleFilter
-
-    from ..common.vtk_bridge import run_algorithm
-
     triangulate = vtkTriangleFilter()
     triangulate.SetInputData(mesh)
     triangulate.PassVertsOff()

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ..common.atomics import take
+from ...common.atomics import take
 
 __all__ = ["feature_columns", "feature_rows", "feature_slices"]
 

@@ -39,7 +39,7 @@ from numba import njit, prange
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
-from ..common.progress import ProgressCallback, report
+from ...common.progress import ProgressCallback, report
 
 __all__ = ["BoundaryCaps", "WindingTree", "boundary_caps", "solid_angle_winding", "winding_numbers"]
 

@@ -11,14 +11,14 @@ the projected point classified into the regions I-VI of the source's figure 3.3)
 
 - the regions are scanned row by row: for every slice and every active region, the rows the region meets and, per
   row, the run of voxels inside it (from the region's half-spaces); along a run the frame coordinates change
-  linearly (the source's interpolated texture coordinates), :mod:`._distance_kernels`; slices run in parallel;
+  linearly (the source's interpolated texture coordinates), :mod:`.kernels`; slices run in parallel;
 - ``regions="box"`` uses the source's own region, the triangle's box grown by ``d`` along ``r``, ``s`` and ``t``
   (Erleben and Dohlmann, as in source 002's section 3.2); ``regions="characteristic"`` (default) the tighter
   regions source 002 names as the way to speed it up ("besser zugeschnittene Polyeder"): the triangle's prism, its
   edges' wedges and its vertices' cones, which hold every point whose nearest mesh point lies on them
-  (:mod:`._characteristics`, after Mauch's characteristics/scan-conversion method of section 3.1.3). Both give the
+  (:mod:`.characteristics`, after Mauch's characteristics/scan-conversion method of section 3.1.3). Both give the
   same, exact, distances in the band; the characteristic regions overlap far less;
-- the sign comes from :func:`.voxelise.voxelise` (parity, or the winding number for meshes with holes), correct
+- the sign comes from :func:`algorithms.fields.voxelise.voxelise` (parity, or the winding number for meshes with holes), correct
   everywhere, never from a plane test at the nearest triangle (source 002, figure 3.4: such tests fail at sharp
   angles);
 - outside the band the field is clamped to ``+-d`` or propagated (:mod:`.propagate`).
@@ -50,11 +50,14 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from ..common.grid import Grid
-from ..common.progress import ProgressCallback, report, scaled
-from . import _characteristics as characteristics
-from . import _distance_kernels as kernels
-from . import _scan_kernels as scan
+from ...common.grid import Grid
+from ...common.progress import ProgressCallback, report, scaled
+from ..voxelise import voxelise
+from ..voxelise.core import _validated as validated_mesh
+from . import characteristics
+from . import kernels
+from . import scan
+from .propagate import propagate
 
 __all__ = ["OUTSIDE_RULES", "REGIONS", "BandDistances", "DistanceField", "MeshFrames", "band_distances",
            "band_from_percent", "exact_distances", "signed_distance"]
@@ -110,8 +113,6 @@ class BandDistances:
 
 
 def _validated(points, triangles, grid) -> tuple[np.ndarray, np.ndarray]:
-    from .voxelise import _validated as validated_mesh
-
     return validated_mesh(points, triangles, grid, "parity")
 
 
@@ -299,7 +300,7 @@ def signed_distance(points, triangles, grid: Grid, *, band_mm: float, outside: s
         Outside the band: ``+-d`` (clamp), or the distance to a triangle found by nearest-triangle propagation
         (:mod:`.propagate`: never below the true distance, exact wherever the voxel's nearest triangle is reached).
     inside : {"parity", "winding"}
-        The voxelisation rule that gives the sign (:func:`.voxelise.voxelise`); never a plane or normal test.
+        The voxelisation rule that gives the sign (:func:`algorithms.fields.voxelise.voxelise`); never a plane or normal test.
     regions : {"characteristic", "box"}
         Region scanned per triangle (:func:`band_distances`).
     progress : callable, optional
@@ -315,9 +316,6 @@ def signed_distance(points, triangles, grid: Grid, *, band_mm: float, outside: s
     ValueError
         Bad mesh, grid, band, rule; a mesh without triangles.
     """
-    from .propagate import propagate
-    from .voxelise import voxelise
-
     if outside not in OUTSIDE_RULES:
         raise ValueError(f"outside must be one of {', '.join(OUTSIDE_RULES)}, got {outside!r}")
     points, triangles = _validated(points, triangles, grid)

@@ -1,8 +1,8 @@
 """The VTK filters of signed distance fields and CSG: ``DistanceFieldFilter`` (``vtkPolyData`` -> ``vtkImageData``
-of float32 mm, negative inside; :func:`.distance.signed_distance`) and ``CsgFilter`` (two or more images of
+of float32 mm, negative inside; :func:`.core.signed_distance`) and ``CsgFilter`` (two or more images of
 distance fields on one grid -> their union, intersection or difference; :func:`.csg.combine`).
 
-Grids as in :mod:`.voxelise_filter`: given with ``SetGrid`` or taken from an image on the optional second port;
+Grids as in :mod:`algorithms.fields.voxelise.filter`: given with ``SetGrid`` or taken from an image on the optional second port;
 images carry their origin and direction matrix. Arrays ``(nz, ny, nx)``; mm.
 """
 
@@ -14,17 +14,19 @@ from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
 from vtkmodules.vtkCommonExecutionModel import vtkAlgorithm
 
-from ..common.grid import Grid
-from ..common.progress import OperationCancelled
-from ..common.vtk_bridge import array_from_image, progress_for
-from .voxelise_filter import _triangles_of, grid_of_image, image_on_grid
+from ...common.grid import Grid
+from ...common.progress import OperationCancelled
+from ...common.vtk_bridge import array_from_image, progress_for
+from ..csg import OPERATIONS, combine
+from ..voxelise.filter import _triangles_of, grid_of_image, image_on_grid
+from .core import OUTSIDE_RULES, signed_distance
 
 
 class DistanceFieldFilter(VTKPythonAlgorithmBase):
     """``vtkPolyData`` (port 0) -> ``vtkImageData`` with point scalars ``"distance"`` (float32 mm, negative inside).
 
     ``SetGrid(Grid)`` or an image on port 1 gives the grid; ``SetBand(mm)``, ``SetOutside("clamp" | "propagate")``,
-    ``SetInside("parity" | "winding")``. :meth:`GetResult` is the last :class:`~.distance.DistanceField` (nearest
+    ``SetInside("parity" | "winding")``. :meth:`GetResult` is the last :class:`~.core.DistanceField` (nearest
     triangles and seconds). Progress and abort as VTK's filters.
     """
 
@@ -58,8 +60,6 @@ class DistanceFieldFilter(VTKPythonAlgorithmBase):
         self._set("_band", float(band_mm))
 
     def SetOutside(self, rule: str) -> None:  # noqa: N802
-        from .distance import OUTSIDE_RULES
-
         if rule not in OUTSIDE_RULES:
             raise ValueError(f"outside must be one of {', '.join(OUTSIDE_RULES)}, got {rule!r}")
         self._set("_outside", rule)
@@ -71,8 +71,6 @@ class DistanceFieldFilter(VTKPythonAlgorithmBase):
         return self._result
 
     def RequestData(self, request, in_info, out_info):  # noqa: N802
-        from .distance import signed_distance
-
         mesh = vtkPolyData.GetData(in_info[0], 0)
         output = vtkImageData.GetData(out_info, 0)
         grid = self._grid
@@ -113,8 +111,6 @@ class CsgFilter(VTKPythonAlgorithmBase):
         return 1
 
     def SetOperation(self, operation: str) -> None:  # noqa: N802
-        from .csg import OPERATIONS
-
         if operation not in OPERATIONS:
             raise ValueError(f"operation must be one of {', '.join(OPERATIONS)}, got {operation!r}")
         if operation != self._operation:
@@ -129,8 +125,6 @@ class CsgFilter(VTKPythonAlgorithmBase):
             self.Modified()
 
     def RequestData(self, request, in_info, out_info):  # noqa: N802
-        from .csg import combine
-
         images = [vtkImageData.GetData(in_info[0], c) for c in range(self.GetNumberOfInputConnections(0))]
         output = vtkImageData.GetData(out_info, 0)
         try:

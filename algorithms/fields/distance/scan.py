@@ -1,4 +1,4 @@
-"""numba kernels that scan the regions of :mod:`._distance_kernels` into the grid, slab by slab and slice by slice.
+"""numba kernels that scan the regions of :mod:`.kernels` into the grid, slab by slab and slice by slice.
 
 The grid's slices are grouped into slabs of a few slices; every region lists the slabs it meets (the source's
 "active" triangles of a slice, sorted by height), so a region's half-spaces are built once per slab. Within a slice
@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from ._distance_kernels import (CUBE, CUBE_EDGES, MAX_PLANES, MAX_VERTICES, PRISM, PRISM_EDGES, PYRAMID, WEDGE_EDGES,
+from .kernels import (CUBE, CUBE_EDGES, MAX_PLANES, MAX_VERTICES, PRISM, PRISM_EDGES, PYRAMID, WEDGE_EDGES,
                                 build_polytope, frame_distance2)
 
 
