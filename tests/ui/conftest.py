@@ -41,7 +41,7 @@ def make_window(qtbot, settings):
             main.resize(*size)
         if show:
             main.show()
-            qtbot.waitExposed(main)
+            qtbot.waitExposed(main, timeout=60_000)  # a loaded machine may take longer than the default 5 s
         return main
 
     yield make
