@@ -196,6 +196,13 @@ class RenderView(QFrame):
         self._idle.stop()
         self.pipeline.shutdown()
         self.plotter.close()
+        # pyvistaqt (0.13, a QOpenGLWidget) keeps its GL context's surface as a Python wrapper of a QSurface, which is
+        # not a QObject: PySide is not told when Qt deletes it with the widget, and while the wrapper lives PySide
+        # hands it out for any new object Qt allocates at the same address (a stress run got a QSurface back from
+        # QDockWidget.toggleViewAction). Dropping the interactor's context references releases the wrapper now.
+        forget_context = getattr(self.plotter, "_forget_context", None)
+        if forget_context is not None:
+            forget_context()
 
     # -- slice planes, measurements and picking -------------------------------------------------------------------
     def set_slice_planes(self, outlines: dict, colors: dict) -> None:

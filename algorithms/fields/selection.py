@@ -42,7 +42,6 @@ from ..common.selection import (
     grid_leap_depths,
     removal_field,
 )
-from .voxelise import voxelise
 
 #: Largest grid (voxels) a grid tool may hold: tools are small by design (source 002: "in der Regel kleiner").
 MAX_TOOL_VOXELS = 64 * 1024 * 1024
@@ -271,6 +270,8 @@ def mesh_tool(points, triangles, *, voxels: int = 64, mode: str = "remove", tran
               progress: ProgressCallback = None) -> Tool:
     """A tool shaped like a closed triangle mesh (LPS mm): voxelised on a grid of ``voxels`` along its longest side
     by :func:`algorithms.fields.voxelise.voxelise` (source 002, 2.2) and used as a binary grid tool."""
+    from .voxelise import voxelise  # here: the voxelisation kernels and SciPy load only for mesh-shaped tools
+
     points = np.asarray(points, dtype=np.float64)
     bounds = [v for axis in range(3) for v in (points[:, axis].min(), points[:, axis].max())]
     grid = Grid.around(bounds, voxels=int(voxels), padding=2)

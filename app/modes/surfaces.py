@@ -23,6 +23,7 @@ from algorithms.common.vtk_bridge import image_from_array, run_algorithm
 from algorithms.surfaces import tower, voxel_faces
 from algorithms.surfaces.marching_cubes import MarchingCubesFilter, count_triangles
 
+from ..cutaways import cut_for_surface
 from ..pipeline.content import IGNORE, REBUILD, ViewInputs
 from ..pipeline.lit_surfaces import LitContent, SurfaceResult, format_bytes, polydata_stats
 from ..pipeline.props import surface_actor, surface_color
@@ -106,9 +107,6 @@ class SurfaceContent(LitContent):
             return self.mode.extract(inputs.item, inputs.iso, stride=max(stride, 1), options=self.options,
                                      progress=progress)
         # The surface of the data minus the tools, capped at the cut (the CSG difference of source 002, 3.3.1).
-
-        from ..cutaways import cut_for_surface
-
         start = time.perf_counter()
         source = cut_for_surface(inputs.volume, tools, inputs.iso, evaluation=inputs.cut_evaluation,
                                  progress=scaled(progress, 0.0, 0.3))

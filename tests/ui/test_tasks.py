@@ -204,10 +204,14 @@ def test_a_window_is_deleted_c_plus_plus_side_first_and_the_next_one_is_unharmed
     from ui.lifetime import delete_now
 
     first = make_window()
+    qtbot.waitUntil(lambda: all(_qt_surfaces(view.plotter) for view in first.views), timeout=10_000)
     held = [first, *first.views, *(view.plotter for view in first.views), *first.slice_views.values()]
     assert all(shiboken.isValid(widget) for widget in held)
     delete_now(first)
     assert not any(shiboken.isValid(widget) for widget in held)
+    # No wrapper of a Qt object PySide cannot track (a QSurface is not a QObject) outlives the deletion: PySide would
+    # hand it out for the next object allocated at its address.
+    assert not any(_qt_surfaces(view.plotter) for view in first.views)
     delete_now(first)  # a second call leaves the deleted window alone
     del held, first
     second = make_window()
@@ -216,3 +220,12 @@ def test_a_window_is_deleted_c_plus_plus_side_first_and_the_next_one_is_unharmed
     assert all(shiboken.isValid(view.plotter) for view in second.views)
     frame = second.views[0].capture()
     assert frame.shape[0] > 0 and frame.shape[1] > 0
+
+
+def _qt_surfaces(interactor) -> list:
+    """The QSurface wrappers an interactor holds (pyvistaqt keeps its GL context's surface once it is drawn)."""
+    from qtpy.QtCore import QObject
+    from qtpy.QtGui import QSurface
+
+    return [value for value in vars(interactor).values()
+            if isinstance(value, QSurface) and not isinstance(value, QObject)]

@@ -69,8 +69,6 @@ import numpy as np
 
 from ...common.grid import Grid
 from ...common.progress import ProgressCallback, report, scaled
-from ..winding import WindingTree, boundary_caps
-from ..winding.blocks import threshold_blocks
 from . import kernels
 
 __all__ = ["INSIDE_RULES", "VoxelisationReport", "voxelise", "voxelise_with_report", "warm_up"]
@@ -194,6 +192,8 @@ def voxelise_with_report(points, triangles, grid: Grid, *, inside: str = "parity
     all_points, all_triangles = points, triangles
     caps = None
     if inside == "winding":
+        from ..winding import boundary_caps  # here: SciPy's sparse graphs load only for the winding rule
+
         caps = boundary_caps(points, triangles)
         if caps.count:
             all_points, all_triangles = caps.points, np.concatenate([triangles, caps.triangles])
@@ -300,6 +300,9 @@ def _near_caps(grid: Grid, caps, levels, beta: float, *, progress) -> int:
     each fan's share below ``budget``; inside, cubes of voxels are examined from coarse to fine
     (:func:`algorithms.fields.winding.blocks.threshold_blocks`). Returns the voxels decided one by one.
     """
+    from ..winding import WindingTree  # here: SciPy's sparse graphs load only for the winding rule
+    from ..winding.blocks import threshold_blocks
+
     budget = _CAP_BUDGET / caps.count  # each cap's share: the sum over all caps stays below 1/2 elsewhere
     reaches = caps.radius + np.sqrt(caps.area / (4.0 * math.pi * budget))
     cubes = [_cap_blocks(grid, centre, reach) for centre, reach in zip(caps.centre, reaches)]
