@@ -2,8 +2,8 @@
 for surfaces and mesh export, the cropped volume of a ``keep`` box, and the state the views share.
 
 The method is source 002's selection volume (Kähler, *Vergleich von Volumenmodellen*, MSc thesis, TU Kaiserslautern,
-about 2009, sections 2.5 and 3.3.1); the tools are :class:`algorithms.fields.selection.Tool` in LPS mm, evaluated per
-sample by :mod:`algorithms.common.selection`.
+about 2009, sections 2.5 and 3.3.1); the tools are :class:`algorithms.fields.cutaway_tools.Tool` in LPS mm, evaluated per
+sample by :mod:`algorithms.common.cutaway`.
 
 Specifications (LPS mm, angles in degrees about x, then y, then z):
 
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from algorithms.fields.selection import (Tool, box_tool, cut_volume, cylinder_tool, grid_tool, masked_copy, plane_tool,
+from algorithms.fields.cutaway_tools import (Tool, box_tool, cut_volume, cylinder_tool, grid_tool, masked_copy, plane_tool,
                                          removed_mask, rotation_matrix, sphere_tool, tool_set)
 
 from .events import Signal
@@ -132,7 +132,7 @@ def tools_from_specs(specs, *, mode: str = "remove") -> list[Tool]:
 # -- tools for a volume ------------------------------------------------------------------------------------------------
 def tool_set_for(volume: Volume, tools, *, evaluation: str = "binary", moving: bool = False,
                  frame_to_world=None):
-    """The visible ``tools`` as a :class:`~algorithms.common.selection.ToolSet` in ``volume``'s frame (index times
+    """The visible ``tools`` as a :class:`~algorithms.common.cutaway.ToolSet` in ``volume``'s frame (index times
     spacing, mm), with the transition width of one (smallest) voxel; ``moving`` takes the cheap path (no tool normals
     at the cut). None when no tool is visible."""
     visible = [tool for tool in tools if tool.visible]
@@ -144,7 +144,7 @@ def tool_set_for(volume: Volume, tools, *, evaluation: str = "binary", moving: b
 
 
 def cut_for_surface(volume: Volume, tools, iso: float, *, evaluation: str = "binary", progress=None) -> Volume:
-    """``volume`` with the tools' CSG difference written in (see :func:`algorithms.fields.selection.cut_volume`), so
+    """``volume`` with the tools' CSG difference written in (see :func:`algorithms.fields.cutaway_tools.cut_volume`), so
     its ``iso`` surface is the surface of what is left, capped at the cut. ``volume`` itself without tools."""
     tools_in_frame = tool_set_for(volume, tools, evaluation=evaluation)
     if tools_in_frame is None:

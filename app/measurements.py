@@ -1,6 +1,6 @@
 """Measurements on a volume, without Qt: distances (mm), angles (degrees), and region statistics (mean, SD,
 minimum, maximum in the volume's units; area in mm^2 or volume in mm^3) of an ellipse on a slice or of the inside
-of a mask (a selection tool's field).
+of a mask (a cut-away tool's field).
 
 Points are LPS millimetres. An ellipse lies in a slice plane (:mod:`app.slices`): centre, the plane's screen axes
 ``u`` and ``v`` and the semi-axes along them (mm); its statistics cover the pixels of that slice whose centres lie

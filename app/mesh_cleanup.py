@@ -73,8 +73,10 @@ def _without_point_normals(polydata: vtkPolyData) -> vtkPolyData:
     return result
 
 
-def _with_point_normals(polydata: vtkPolyData, progress: ProgressCallback) -> vtkPolyData:
-    """Point normals recomputed from the triangles, winding kept as it is (no reordering, no splitting)."""
+def _with_point_normals(polydata: vtkPolyData, progress: ProgressCallback, *, consistent: bool = False) -> vtkPolyData:
+    """Point normals recomputed from the triangles (no splitting, no automatic orientation). The winding is kept as
+    it is, or with ``consistent`` turned where a triangle disagrees with its neighbours (``vtkPolyDataNormals``
+    consistency, which starts from the surface's own triangles)."""
     from vtkmodules.vtkFiltersCore import vtkPolyDataNormals
 
     normals = vtkPolyDataNormals()
@@ -82,7 +84,7 @@ def _with_point_normals(polydata: vtkPolyData, progress: ProgressCallback) -> vt
     normals.ComputePointNormalsOn()
     normals.ComputeCellNormalsOff()
     normals.SplittingOff()
-    normals.ConsistencyOff()
+    normals.SetConsistency(consistent)
     normals.AutoOrientNormalsOff()
     return _detached(run_algorithm(normals, progress))
 
@@ -253,7 +255,6 @@ def fill_small_holes(polydata, max_hole_size_mm: float, *, progress: ProgressCal
     and ``vtkPolyDataNormals`` (consistency on) turns them to agree with the triangles around them, starting from
     the surface's own triangles, so the surface keeps its orientation. The result has point normals.
     """
-    from vtkmodules.vtkFiltersCore import vtkPolyDataNormals
     from vtkmodules.vtkFiltersModeling import vtkFillHolesFilter
 
     polydata = _checked_polydata(polydata)
@@ -263,14 +264,7 @@ def fill_small_holes(polydata, max_hole_size_mm: float, *, progress: ProgressCal
     filler.SetInputData(polydata)
     filler.SetHoleSize(float(max_hole_size_mm))
     filled = surface_compare.triangulated(_detached(run_algorithm(filler, scaled(progress, 0.0, 0.5))))
-    normals = vtkPolyDataNormals()
-    normals.SetInputData(_without_point_normals(filled))
-    normals.ConsistencyOn()
-    normals.AutoOrientNormalsOff()
-    normals.SplittingOff()
-    normals.ComputePointNormalsOn()
-    normals.ComputeCellNormalsOff()
-    return _detached(run_algorithm(normals, scaled(progress, 0.5, 1.0)))
+    return _with_point_normals(filled, scaled(progress, 0.5, 1.0), consistent=True)
 
 
 @dataclass(frozen=True)

@@ -21,19 +21,18 @@ Formats (what the readers of :mod:`app.io.meshes`, VTK, meshio, 3D Slicer and sl
 
 from __future__ import annotations
 
-import errno
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 from vtkmodules.util import numpy_support
-from vtkmodules.vtkCommonCore import vtkCommand
 
 from algorithms.common.progress import ProgressCallback, report
 from algorithms.common.vtk_bridge import polydata_arrays
 
 from .io.atomic import atomic_outputs, check_companions, sidecar_json, write_error
 from .io.errors import VolumeWriteError
+from .io.vtk_writing import write_with_vtk
 
 MESH_SUFFIXES = (".stl", ".ply", ".obj", ".vtp")
 #: Triangles (or points) formatted and written per block: bounds the memory of a write and paces its progress.
@@ -118,25 +117,9 @@ def _write_obj(handle, points, triangles, normals, progress) -> int | None:
 
 
 def _write_vtp(path: Path, polydata, progress) -> None:
-    from vtkmodules.vtkCommonMisc import vtkErrorCode
     from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
-    writer = vtkXMLPolyDataWriter()
-    writer.SetCompressorTypeToZLib()
-    writer.SetDataModeToAppended()
-    writer.EncodeAppendedDataOff()  # raw appended data: smaller than base64, and what the VTI writer does
-    writer.SetInputData(polydata)
-    writer.SetFileName(str(path))
-    messages: list[str] = []
-    for source in (writer, writer.GetExecutive()):
-        source.AddObserver(vtkCommand.ErrorEvent, lambda caller, event: messages.append(event))
-    written = writer.Write()
-    code = writer.GetErrorCode()
-    del writer  # closes the file now, not when the traceback of an error below is dropped
-    if written != 1 or code != 0 or messages:
-        if code in (vtkErrorCode.OutOfDiskSpaceError, errno.ENOSPC):
-            raise OSError(errno.ENOSPC, "No space left on device")
-        raise OSError(errno.EIO, vtkErrorCode.GetStringFromErrorCode(code) if code else "VTK reported an error")
+    write_with_vtk(vtkXMLPolyDataWriter, polydata, path)
     report(progress, 1.0)
 
 

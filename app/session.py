@@ -28,6 +28,7 @@ from algorithms.common.camera import Camera
 from .io import save_volume, load_volume
 from .io.atomic import atomic_output, check_target, numpy_json
 from .io.meshes import load_mesh
+from .io.vtk_writing import write_with_vtk
 from .measurements import Measurement
 from .mesh_files import write_mesh_files
 from .scene import FieldItem, MeshItem, TetMeshItem
@@ -191,11 +192,7 @@ def _write_item(item, path: Path) -> None:
         from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridWriter
 
         with atomic_output(path) as temporary:
-            writer = vtkXMLUnstructuredGridWriter()
-            writer.SetFileName(str(temporary))
-            writer.SetInputData(item.grid)
-            if not writer.Write():
-                raise OSError(f"{path}: VTK could not write the tetrahedral mesh")
+            write_with_vtk(vtkXMLUnstructuredGridWriter, item.grid, temporary)
 
 
 def session_snapshot(model, *, cameras: list | None = None, window: dict | None = None) -> tuple[dict, list]:

@@ -1,4 +1,4 @@
-"""Frame times of the shear-warp kernels of one checkout, for before/after comparisons of a kernel change.
+"""Frame times of the software renderers' kernels of one checkout, for before/after comparisons of a kernel change.
 
 Usage (from any directory, with the project's virtual environment)::
 
@@ -8,10 +8,11 @@ imports ``algorithms`` and ``app`` from ``CHECKOUT`` (so two checkouts, e.g. a `
 a change and the working tree, run the same script), renders the CT phantom (256 x 256 x 88 voxels of 1.094 x 1.094
 x 3 mm, ``ct-bone``, 512 x 512 pixels) with every shear-warp kernel path - parallel run-length compositing unshaded
 and shaded, perspective scanlines, jittered post-classification, cut-away tools (a sphere and a grid tool, binary
-and distance evaluation) - over ``N`` frames of a turning camera after one warm-up frame (numba's cache load), and
-prints one line per case with the median frame time and the set-up time (classification, run-length encoding,
+and distance evaluation) - and, at 256 x 256 pixels, the ray marcher and texture slicing (trilinear sampling, and the
+ray marcher with the grid tool) over ``N`` frames of a turning camera after one warm-up frame (numba's cache load),
+and prints one line per case with the median frame time and the set-up time (classification, run-length encoding,
 normals) in milliseconds. Times are wall-clock seconds of one
-``render`` call. Run the two checkouts in turns (``farm-bench A --vs B``) and compare the medians; nothing here
+``render`` call. Run the two checkouts in turns (docs/testing.md shows the loop) and compare the medians; nothing here
 asserts anything.
 """
 
@@ -36,8 +37,10 @@ def main(argv=None) -> int:
     import numpy as np
 
     from algorithms.common.grid import Grid
-    from algorithms.fields.selection import grid_tool, sphere_tool, tool_set
+    from algorithms.fields.cutaway_tools import grid_tool, sphere_tool, tool_set
+    from algorithms.rendering.raymarch import RaymarchRenderer
     from algorithms.rendering.shear_warp import ShearWarpRenderer
+    from algorithms.rendering.texture_slicing import SlicingRenderer
     from app.datasets import ct_head_phantom
     from app.pipeline import default_camera
     from app.transfer import transfer_function_for
@@ -57,24 +60,28 @@ def main(argv=None) -> int:
     binary = tool_set(placed, volume.local_to_world, evaluation="binary", width=min(volume.spacing))
     distance = tool_set(placed, volume.local_to_world, evaluation="distance", width=min(volume.spacing))
 
+    # name: (renderer, its options, parallel projection, cut-away tools, image size in pixels)
     cases = {
-        "parallel": (dict(), True, None),
-        "parallel-shaded": (dict(shading=True), True, None),
-        "own-grid": (dict(resample_spacing=None), True, None),
-        "perspective": (dict(), False, None),
-        "jitter": (dict(jitter=True), True, None),
-        "tools-binary": (dict(shading=True), True, binary),
-        "tools-distance": (dict(shading=True), True, distance),
+        "parallel": (ShearWarpRenderer, dict(), True, None, 512),
+        "parallel-shaded": (ShearWarpRenderer, dict(shading=True), True, None, 512),
+        "own-grid": (ShearWarpRenderer, dict(resample_spacing=None), True, None, 512),
+        "perspective": (ShearWarpRenderer, dict(), False, None, 512),
+        "jitter": (ShearWarpRenderer, dict(jitter=True), True, None, 512),
+        "tools-binary": (ShearWarpRenderer, dict(shading=True), True, binary, 512),
+        "tools-distance": (ShearWarpRenderer, dict(shading=True), True, distance, 512),
+        "raymarch": (RaymarchRenderer, dict(), False, None, 256),
+        "raymarch-tools": (RaymarchRenderer, dict(), False, distance, 256),
+        "slicing": (SlicingRenderer, dict(), False, None, 256),
     }
     rows = []
-    for name, (options, parallel, tools) in cases.items():
+    for name, (kind, options, parallel, tools, size) in cases.items():
         start = time.perf_counter()
-        renderer = ShearWarpRenderer(volume.array, volume.spacing, table, **options)
+        renderer = kind(volume.array, volume.spacing, table, **options)
         setup_ms = 1000.0 * (time.perf_counter() - start)
         times = []
         for index, camera in enumerate(cameras(parallel)):
             start = time.perf_counter()
-            renderer.render(camera, 512, 512, tools=tools)
+            renderer.render(camera, size, size, tools=tools)
             if index:  # the first frame loads numba's cache
                 times.append(time.perf_counter() - start)
         median_ms = 1000.0 * statistics.median(times)

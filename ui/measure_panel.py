@@ -5,7 +5,9 @@ unit, mean/SD/min/max in the volume's units, where it was made), with Delete and
 from __future__ import annotations
 
 from qtpy.QtCore import Signal
-from qtpy.QtWidgets import QHBoxLayout, QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget
+from qtpy.QtWidgets import QPushButton, QTableWidget, QTableWidgetItem, QWidget
+
+from .panel_layout import panel_layout, refresh_on
 
 COLUMNS = ("Name", "Value", "Mean", "SD", "Min", "Max", "Where")
 
@@ -33,16 +35,8 @@ class MeasurementsPanel(QWidget):
         self.delete_button.clicked.connect(self._delete_current)
         self.export_button = QPushButton("Export CSV...")
         self.export_button.clicked.connect(self.export_requested.emit)
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.delete_button)
-        buttons.addWidget(self.export_button)
-        layout = QVBoxLayout(self)
-        layout.setContentsMargins(4, 4, 4, 4)
-        layout.addWidget(self.table, 1)
-        layout.addLayout(buttons)
-        for signal in (measurements.added, measurements.removed, measurements.reset):
-            signal.connect(lambda *_: self.refresh())
-        self.refresh()
+        panel_layout(self, self.table, (self.delete_button, self.export_button))
+        refresh_on((measurements.added, measurements.removed, measurements.reset), self.refresh)
 
     def refresh(self) -> None:
         rows = list(self.measurements)

@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import html
 
-from qtpy.QtWidgets import QTextBrowser, QVBoxLayout, QWidget
+from qtpy.QtWidgets import QTextBrowser, QWidget
 
 from app.provenance import FIELD_LABELS, provenance
+
+from .panel_layout import panel_layout
 
 
 def _rows(pairs) -> str:
@@ -23,9 +25,7 @@ class ProvenancePanel(QWidget):
         self.browser = QTextBrowser()
         self.browser.setObjectName("provenance")
         self.browser.setOpenLinks(False)
-        layout = QVBoxLayout(self)
-        layout.setContentsMargins(4, 4, 4, 4)
-        layout.addWidget(self.browser)
+        panel_layout(self, self.browser, stretch=0)
         self.info: dict = {}
         self.browser.setHtml("<i>No volume open.</i>")
 

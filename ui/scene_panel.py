@@ -4,7 +4,9 @@ chosen item is what the 3D views show, the others are drawn beside it (meshes) o
 from __future__ import annotations
 
 from qtpy.QtCore import Qt, Signal
-from qtpy.QtWidgets import QHBoxLayout, QListWidget, QListWidgetItem, QPushButton, QVBoxLayout, QWidget
+from qtpy.QtWidgets import QListWidget, QListWidgetItem, QPushButton, QWidget
+
+from .panel_layout import panel_layout, refresh_on
 
 KIND_NAMES = {"volume": "volume", "field": "field", "mesh": "mesh", "tetmesh": "tetrahedra"}
 
@@ -25,16 +27,9 @@ class ScenePanel(QWidget):
         self.show_button.clicked.connect(self._show_current)
         self.remove_button = QPushButton("Remove")
         self.remove_button.clicked.connect(self._remove_current)
-        buttons = QHBoxLayout()
-        buttons.addWidget(self.show_button)
-        buttons.addWidget(self.remove_button)
-        layout = QVBoxLayout(self)
-        layout.setContentsMargins(4, 4, 4, 4)
-        layout.addWidget(self.list, 1)
-        layout.addLayout(buttons)
-        for signal in (model.scene.item_added, model.scene.item_removed, model.scene.item_changed, model.item_changed):
-            signal.connect(lambda *_: self.refresh())
-        self.refresh()
+        panel_layout(self, self.list, (self.show_button, self.remove_button))
+        refresh_on((model.scene.item_added, model.scene.item_removed, model.scene.item_changed, model.item_changed),
+                   self.refresh)
 
     def refresh(self) -> None:
         self.list.clear()

@@ -12,11 +12,12 @@ from qtpy.QtWidgets import (
     QListWidget,
     QListWidgetItem,
     QPushButton,
-    QVBoxLayout,
     QWidget,
 )
 
 from app.cutaways import CUT_EVALUATIONS, CUT_MODES
+
+from .panel_layout import panel_layout
 
 
 def tool_label(tool) -> str:
@@ -73,11 +74,7 @@ class ToolPanel(QWidget):
         form = QFormLayout()
         form.addRow("Mode", self.mode_box)
         form.addRow("Evaluation", self.evaluation_box)
-        layout = QVBoxLayout(self)
-        layout.setContentsMargins(4, 4, 4, 4)
-        layout.addWidget(self.list)
-        layout.addLayout(buttons)
-        layout.addLayout(form)
+        panel_layout(self, self.list, buttons, form, stretch=0)
         self._updating = False
 
     def show_tools(self, tools, evaluation: str, current: int) -> None:

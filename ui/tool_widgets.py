@@ -5,7 +5,7 @@ a sphere (``vtkSphereWidget2``) or a plane (``vtkImplicitPlaneWidget2``), the se
 Every linked 3D view has one :class:`ToolWidget`; all show the same tool. Dragging calls ``on_moved(tool, moving)``
 with the tool the widget now describes (``moving`` True during the drag, False at release), and the window
 replaces the tool in the selection, which the views' pipelines then evaluate per sample. Computes nothing itself:
-the tool's geometry comes from :mod:`algorithms.fields.selection`. Cylinder and grid tools have no widget (they are
+the tool's geometry comes from :mod:`algorithms.fields.cutaway_tools`. Cylinder and grid tools have no widget (they are
 moved from the command line or the tool list).
 """
 
@@ -119,7 +119,7 @@ class ToolWidget:
             return replace(tool, matrix=rigid, size=size)
         if shape == "sphere":
             return tool.moved(centre=representation.GetCenter(), size=(float(representation.GetRadius()),))
-        from algorithms.fields.selection import plane_tool
+        from algorithms.fields.cutaway_tools import plane_tool
 
         moved = plane_tool(representation.GetOrigin(), representation.GetNormal(), mode=tool.mode)
         return tool.with_matrix(moved.matrix)

@@ -36,7 +36,7 @@ class CutawayActions:
         box.setObjectName("cut-away-tools")
         QVBoxLayout(box).addWidget(self.tool_panel)
         self.controls.layout().addWidget(box)
-        self.model.cutaways.changed.connect(self._selection_changed)
+        self.model.cutaways.changed.connect(self._cutaways_changed)
         self._dragging_widget = None
 
     # -- what menus, the panel and tests call ------------------------------------------------------------------------
@@ -86,7 +86,7 @@ class CutawayActions:
 
         volume = self.model.volume
         mode = view.pipeline.mode
-        if volume is None or mode is None or not mode.capabilities.accepts_selection:
+        if volume is None or mode is None or not mode.capabilities.accepts_cutaways:
             return volume
         return cut_for_surface(volume, self.model.cutaways.tools, view.pipeline.inputs.iso,
                                evaluation=self.model.cutaways.evaluation)
@@ -136,12 +136,12 @@ class CutawayActions:
             if widget is not self._dragging_widget:
                 widget.show_tool(tool)
 
-    def _selection_changed(self, moving: bool) -> None:
-        selection = self.model.cutaways
+    def _cutaways_changed(self, moving: bool) -> None:
+        cutaways = self.model.cutaways
         self._place_widgets()
         if not moving:
-            self.tool_panel.show_tools(selection.tools, selection.evaluation, self.current_tool)
+            self.tool_panel.show_tools(cutaways.tools, cutaways.evaluation, self.current_tool)
             self._refresh_cut_overlay()
         for view in self.views[: self.model.view_count]:
             if view.item is not None and getattr(view.item, "volume", None) is not None:
-                view.pipeline.set_tools(selection.tools, selection.evaluation, moving=moving)
+                view.pipeline.set_tools(cutaways.tools, cutaways.evaluation, moving=moving)

@@ -138,7 +138,7 @@ class ToolActions:
         masks = [item.name for item in self.model.scene.of_kind("field") if item.role == "mask"]
         if not masks or self.model.base_volume is None:
             self._report_error("Statistics inside a mask need a volume and a mask in the scene (make one with a "
-                               "selection tool or an operation first).", "No mask")
+                               "cut-away tool or an operation first).", "No mask")
             return
         name, ok = QInputDialog.getItem(self, "Statistics inside a mask", "Mask", masks, 0, False)
         if ok:

@@ -114,7 +114,7 @@ class RendererFilter(VTKPythonAlgorithmBase):
         return self._pass_index
 
     def SetTools(self, tools) -> None:  # noqa: N802
-        """Cut-away tools (:class:`algorithms.common.selection.ToolSet` in the input image's coordinates, or None):
+        """Cut-away tools (:class:`algorithms.common.cutaway.ToolSet` in the input image's coordinates, or None):
         a frame option - evaluated per sample, the set-up is kept (moving a tool rewrites nothing)."""
         if tools is not None and len(tools) == 0:
             tools = None

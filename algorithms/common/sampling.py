@@ -38,16 +38,10 @@ def cell_of(coordinate, size):
 
 
 @njit(cache=True, nogil=True)
-def trilinear(volume, i0, j0, k0, fx, fy, fz):
-    """Trilinear interpolation in the cell with lower corner ``(i0, j0, k0)`` at fractions ``(fx, fy, fz)``."""
-    c000 = volume[k0, j0, i0]
-    c001 = volume[k0, j0, i0 + 1]
-    c010 = volume[k0, j0 + 1, i0]
-    c011 = volume[k0, j0 + 1, i0 + 1]
-    c100 = volume[k0 + 1, j0, i0]
-    c101 = volume[k0 + 1, j0, i0 + 1]
-    c110 = volume[k0 + 1, j0 + 1, i0]
-    c111 = volume[k0 + 1, j0 + 1, i0 + 1]
+def blend_corners(c000, c001, c010, c011, c100, c101, c110, c111, fx, fy, fz):
+    """Trilinear blend of a cell's eight corner values (``cKJI``: corner at ``k0 + K``, ``j0 + J``, ``i0 + I``) at
+    fractions ``(fx, fy, fz)``: along x, then y, then z. Every trilinear read (volumes, grid cut-away tools) ends
+    here."""
     c00 = c000 + fx * (c001 - c000)
     c01 = c010 + fx * (c011 - c010)
     c10 = c100 + fx * (c101 - c100)
@@ -55,6 +49,15 @@ def trilinear(volume, i0, j0, k0, fx, fy, fz):
     c0 = c00 + fy * (c01 - c00)
     c1 = c10 + fy * (c11 - c10)
     return c0 + fz * (c1 - c0)
+
+
+@njit(cache=True, nogil=True)
+def trilinear(volume, i0, j0, k0, fx, fy, fz):
+    """Trilinear interpolation in the cell with lower corner ``(i0, j0, k0)`` at fractions ``(fx, fy, fz)``."""
+    return blend_corners(
+        volume[k0, j0, i0], volume[k0, j0, i0 + 1], volume[k0, j0 + 1, i0], volume[k0, j0 + 1, i0 + 1],
+        volume[k0 + 1, j0, i0], volume[k0 + 1, j0, i0 + 1], volume[k0 + 1, j0 + 1, i0], volume[k0 + 1, j0 + 1, i0 + 1],
+        fx, fy, fz)
 
 
 @njit(cache=True, nogil=True)

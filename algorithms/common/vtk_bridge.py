@@ -12,6 +12,8 @@ in VTK order ``(x, y, z)``.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from vtkmodules.util import numpy_support
 from vtkmodules.vtkCommonCore import vtkCommand, vtkObject
@@ -114,6 +116,25 @@ def progress_for(algorithm: vtkAlgorithm) -> ProgressCallback:
             raise OperationCancelled(f"{algorithm.GetClassName()} was aborted")
 
     return _progress
+
+
+def request_data(method):
+    """Decorate a ``VTKPythonAlgorithmBase.RequestData`` so that it follows VTK's conventions whatever the NumPy core
+    raises: a ``ValueError`` (bad input or parameters) becomes an ``ErrorEvent`` carrying its message and a failed
+    request (0, so ``Update`` reports it and :func:`run_algorithm` raises :class:`VTKError`); a computation cancelled
+    through :func:`progress_for` leaves the output empty and succeeds (1), as an aborted VTK filter does."""
+
+    @functools.wraps(method)
+    def guarded(self, request, in_info, out_info):
+        try:
+            return method(self, request, in_info, out_info)
+        except OperationCancelled:
+            return 1
+        except ValueError as error:
+            self.InvokeEvent(vtkCommand.ErrorEvent, str(error))
+            return 0
+
+    return guarded
 
 
 def vtk_matrix(matrix: np.ndarray):

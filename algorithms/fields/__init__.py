@@ -1,4 +1,4 @@
-"""Fields on a grid made from meshes and volumes: masks, distances, constructive solid geometry, selections.
+"""Fields on a grid made from meshes and volumes: masks, distances, constructive solid geometry, cut-away tools.
 
 Modules are imported on use (no eager imports here: each pulls in its own numba kernels).
 
@@ -12,5 +12,5 @@ One package per algorithm, like :mod:`algorithms.surfaces` and :mod:`algorithms.
 - :mod:`.distance`: signed distance fields of meshes, exact in a band (source 002, chapter 3), propagated outside
   it (``DistanceFieldFilter``, and ``CsgFilter`` for :mod:`.csg`).
 - :mod:`.csg`: constructive solid geometry on distance fields (one module).
-- :mod:`.selection`: the cut-away tools as fields (one module).
+- :mod:`.cutaway_tools`: the cut-away tools as fields (one module).
 """

@@ -34,7 +34,7 @@ from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
 from ..common.mesh import TriangleMesh
 from ..common.progress import ProgressCallback, report
 from ..common.validation import validated_geometry, validated_solid
-from ..common.vtk_bridge import array_from_image, progress_for
+from ..common.vtk_bridge import array_from_image, progress_for, request_data
 
 #: Face directions in the order used by :attr:`VoxelFaces.directions`: ``-x, +x, -y, +y, -z, +z`` (code ``d``:
 #: axis ``d // 2``, outward side ``-1`` for even ``d`` and ``+1`` for odd ``d``).
@@ -243,6 +243,7 @@ class VoxelSurfaceFilter(VTKPythonAlgorithmBase):
     def GetThreshold(self) -> float:  # noqa: N802
         return self._threshold
 
+    @request_data
     def RequestData(self, request, in_info, out_info):  # noqa: N802
         image = vtkImageData.GetData(in_info[0], 0)
         output = vtkPolyData.GetData(out_info, 0)

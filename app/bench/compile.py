@@ -201,7 +201,7 @@ def workload_cutaway():
     parallel shear-warp with the tool, and the cut volume the surface modes mesh."""
     import numpy as np
 
-    from algorithms.fields.selection import cut_volume, sphere_tool, tool_set
+    from algorithms.fields.cutaway_tools import cut_volume, sphere_tool, tool_set
     from algorithms.rendering.raymarch import RaymarchRenderer
     from algorithms.rendering.shear_warp import ShearWarpRenderer
 

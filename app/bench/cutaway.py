@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from algorithms.common.progress import ProgressCallback, report
-from algorithms.references.vtk_selection import mask_image
+from algorithms.references.vtk_cutaway import mask_image
 
 from ..io.meshes import load_mesh
 from ..modes import get_mode
@@ -58,7 +58,7 @@ def _bunny_tool():
     """The Stanford bunny scaled to 90 mm and placed at the front of the phantom's head, voxelised at 64 voxels;
     None (and a reason) when the shared meshes are absent."""
     from algorithms.compare.triangles import surface_arrays
-    from algorithms.fields.selection import mesh_tool
+    from algorithms.fields.cutaway_tools import mesh_tool
 
     path = MESHES / "stanford-bunny.obj.gz"
     if not path.exists():
@@ -81,7 +81,7 @@ def _tools():
 
 
 def _accepting(name: str) -> bool:
-    return get_mode(name).capabilities.accepts_selection
+    return get_mode(name).capabilities.accepts_cutaways
 
 
 def _frame_seconds(item, mode, shading, size, frames, tool=None) -> float:
@@ -159,8 +159,8 @@ def _agreement(item, volume, modes, sphere, size) -> list[dict[str, Any]]:
 
 def _moves(shape=(256, 256, 256)) -> list[dict[str, Any]]:
     """Median seconds per move of a sphere tool on a 256^3 volume, per kind of consumer."""
-    from algorithms.common.selection import removal_field
-    from algorithms.fields.selection import cut_volume, sphere_tool, tool_set
+    from algorithms.common.cutaway import removal_field
+    from algorithms.fields.cutaway_tools import cut_volume, sphere_tool, tool_set
 
     rng = np.random.default_rng(0)
     array = rng.integers(-1000, 1500, size=shape, dtype=np.int16)

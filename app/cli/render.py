@@ -94,11 +94,11 @@ def run(args) -> int:
     tools = tools_from_args(args)  # bad specifications are refused before loading anything
     item = load_item(args)
     _check_surface_isovalue(mode, item, args.iso)
-    if tools and not mode.capabilities.accepts_selection:
+    if tools and not mode.capabilities.accepts_cutaways:
         from ..modes import modes
 
         raise ValueError(f"mode {mode.name!r} does not honour cut-away tools (--cut); modes that do: "
-                         + ", ".join(m.name for m in modes() if m.capabilities.accepts_selection))
+                         + ", ".join(m.name for m in modes() if m.capabilities.accepts_cutaways))
     settings = RenderSettings(
         mode=mode, options={k: v for k, v in options.items() if v is not None and k in
                                  mode_options_from_args(args)},

@@ -15,19 +15,18 @@ check what a header declares against the file before allocating (see :mod:`app.i
 
 from __future__ import annotations
 
-import errno
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from vtkmodules.vtkCommonCore import vtkCommand, vtkStringArray
+from vtkmodules.vtkCommonCore import vtkStringArray
 from vtkmodules.vtkCommonDataModel import vtkImageData
 
 from algorithms.common.vtk_bridge import VTKError, array_from_image, run_algorithm
 
 from ..volume import Volume
 from .atomic import atomic_output
-from .errors import CorruptFileError, UnsupportedFormatError, VolumeWriteError
+from .errors import CorruptFileError, UnsupportedFormatError
 from .geometry import guess_ct, make_volume, orthonormal_direction
 from .metaimage import parse_header as parse_metaimage_header
 from .metaimage import geometry as metaimage_geometry
@@ -35,6 +34,7 @@ from .metaimage import write_metaimage
 from .nifti import read_nifti, write_nifti
 from .nrrdfile import read_nrrd, write_nrrd
 from .safety import product, require_fits, require_regular_file
+from .vtk_writing import write_with_vtk
 from .vtkimage import check_legacy_vtk, check_vti
 
 __all__ = [
@@ -138,7 +138,6 @@ def write_vti(volume, path, *, overwrite: bool = False) -> Path:
     VTK's writer reports a full disk only through its error code (and by printing), so the error code is checked
     and VTK's messages are caught: a failed write never lands at ``path``.
     """
-    from vtkmodules.vtkCommonMisc import vtkErrorCode
     from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
 
     path = Path(path)
@@ -149,22 +148,7 @@ def write_vti(volume, path, *, overwrite: bool = False) -> Path:
         array.InsertNextValue(value)
         image.GetFieldData().AddArray(array)
     with atomic_output(path, overwrite=overwrite) as temporary:
-        writer = vtkXMLImageDataWriter()
-        writer.SetFileName(str(temporary))
-        writer.SetInputData(image)
-        writer.SetCompressorTypeToZLib()
-        writer.SetDataModeToAppended()
-        writer.EncodeAppendedDataOff()
-        messages: list[str] = []
-        for source in (writer, writer.GetExecutive()):
-            source.AddObserver(vtkCommand.ErrorEvent, lambda caller, event: messages.append(event))
-        written = writer.Write()
-        code = writer.GetErrorCode()
-        if written != 1 or code != 0 or messages:
-            full = code in (vtkErrorCode.OutOfDiskSpaceError, errno.ENOSPC)
-            reason = ("the disk is full (no space left on device)" if full
-                      else vtkErrorCode.GetStringFromErrorCode(code) if code else "VTK reported an error")
-            raise VolumeWriteError(f"{path}: could not be written: {reason}")
+        write_with_vtk(vtkXMLImageDataWriter, image, temporary)
     return path
 
 

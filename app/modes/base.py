@@ -34,7 +34,7 @@ class Capabilities:
     ``preview_stride``: voxel stride of the mode's own coarse path for previews while the isovalue is dragged
     (0: the mode has none and always works at full resolution).
     ``uses_iso``: the picture depends on the isovalue (surfaces). ``uses_transfer_function``: on the transfer
-    function (volume rendering). ``accepts_selection``: honours cut-away tools (see the selection issue).
+    function (volume rendering). ``accepts_cutaways``: honours cut-away tools.
     ``software``: our own renderer drawing images on the CPU (the view renders previews while the camera moves).
     """
 
@@ -42,7 +42,7 @@ class Capabilities:
     preview_stride: int = 0
     uses_iso: bool = False
     uses_transfer_function: bool = False
-    accepts_selection: bool = False
+    accepts_cutaways: bool = False
     software: bool = False
     clip_plane: bool = False  # the view cuts the content with a plane the window lets the user drag (issue 16)
 

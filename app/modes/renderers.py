@@ -139,7 +139,7 @@ class RendererContent(ViewContent):
         if change == "background":
             self._restart()
             return REFRAME
-        if change == "selection":
+        if change == "cutaways":
             # Per-sample tools: the filter keeps its set-up, the next frame is cut (no data rewrite).
             self._restart()
             self.filter.SetTools(inputs.tool_set())
@@ -207,7 +207,7 @@ class SliceStackContent(ViewContent):
     def react(self, change: str, renderer, inputs: ViewInputs) -> str:
         if change == "transfer_function":
             return REBUILD  # new textures for every slice
-        return REFRAME if change in ("background", "selection") else IGNORE
+        return REFRAME if change in ("background", "cutaways") else IGNORE
 
     def frame_work(self, renderer, camera: Camera, size: tuple[int, int]):
         stack, local = self.stack, camera_in_frame(camera, self._inputs.item.local_to_world)
@@ -316,7 +316,7 @@ register_mode(RendererMode(
     "raymarch", "Ray marching", "Our ray marcher: Beer-Lambert absorption, Blinn-Phong or single scattering, early "
     "termination, empty-space skipping (sources 001, 002)", **VOLUME_RENDERING,
     filter_class="algorithms.rendering.raymarch:RaymarchFilter", configure=_configure_raymarch,
-    capabilities=Capabilities(uses_transfer_function=True, software=True, accepts_selection=True),
+    capabilities=Capabilities(uses_transfer_function=True, software=True, accepts_cutaways=True),
     options=(
         Option("lighting", "str", None, "ray marching: emission-absorption only, Blinn-Phong from gradients, or "
                "single scattering towards a light (default: the preset's shading)",
@@ -332,7 +332,7 @@ register_mode(SlicingMode(
     "slicing", "Texture slicing", "View-aligned slices blended back to front (float compositing; compositing=gl "
     "draws them with OpenGL)", **VOLUME_RENDERING,
     filter_class="algorithms.rendering.texture_slicing:TextureSlicingFilter", configure=_configure_slicing,
-    capabilities=Capabilities(uses_transfer_function=True, software=True, accepts_selection=True), slicing="view",
+    capabilities=Capabilities(uses_transfer_function=True, software=True, accepts_cutaways=True), slicing="view",
     options=(
         Option("slices", "int", None, "texture slicing: number of view-aligned slices (default: one per smallest "
                "voxel spacing along the view)", minimum=2, maximum=100_000),
@@ -345,7 +345,7 @@ register_mode(SlicingMode(
     "slicing-axis", "Axis-aligned slicing", "Three stacks of axis-aligned slices, the one most perpendicular to the "
     "view drawn back to front (source 002)", **VOLUME_RENDERING,
     filter_class="algorithms.rendering.texture_slicing:TextureSlicingFilter", configure=_configure_slicing,
-    capabilities=Capabilities(uses_transfer_function=True, software=True, accepts_selection=True), slicing="axis",
+    capabilities=Capabilities(uses_transfer_function=True, software=True, accepts_cutaways=True), slicing="axis",
     options=(COMPOSITING,),
 ))
 register_mode(RendererMode(
@@ -353,7 +353,7 @@ register_mode(RendererMode(
     "termination (source 004; parallel, or perspective after Lacroute's perspective factorisation)",
     **VOLUME_RENDERING,
     filter_class="algorithms.rendering.shear_warp:ShearWarpFilter", configure=_configure_shear_warp,
-    capabilities=Capabilities(uses_transfer_function=True, software=True, accepts_selection=True),
+    capabilities=Capabilities(uses_transfer_function=True, software=True, accepts_cutaways=True),
     options=(
         Option("resample_spacing", "float", None, "shear-warp: render a grid of about this spacing (source 004's "
                "remedy for anisotropic voxels; default: anisotropic volumes at their smallest spacing, isotropic "

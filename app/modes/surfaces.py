@@ -102,7 +102,7 @@ class SurfaceContent(LitContent):
 
     def prepare(self, inputs: ViewInputs, *, preview: bool = False, progress=None) -> SurfaceResult:
         stride = self.mode.capabilities.preview_stride if preview else 0
-        tools = inputs.visible_tools() if self.mode.capabilities.accepts_selection else []
+        tools = inputs.visible_tools() if self.mode.capabilities.accepts_cutaways else []
         if not tools:
             return self.mode.extract(inputs.item, inputs.iso, stride=max(stride, 1), options=self.options,
                                      progress=progress)
@@ -129,8 +129,8 @@ class SurfaceContent(LitContent):
         self._replace_props(renderer, [actor], detail_mm=max(volume.spacing))
 
     def react(self, change: str, renderer, inputs: ViewInputs) -> str:
-        if change == "selection":
-            return REBUILD if self.mode.capabilities.accepts_selection else IGNORE
+        if change == "cutaways":
+            return REBUILD if self.mode.capabilities.accepts_cutaways else IGNORE
         return REBUILD if change == "iso" else IGNORE
 
     def status(self) -> str:
@@ -275,7 +275,7 @@ def _voxel_memory(polydata) -> dict:
 
 
 SURFACE = dict(group="Surfaces", input="volume", output="surface")
-ISO = Capabilities(uses_iso=True, accepts_selection=True)
+ISO = Capabilities(uses_iso=True, accepts_cutaways=True)
 
 MARCHING_COUNT = dict(count=_marching_cubes_count, bound=_cell_bound)
 VOXEL_COUNT = dict(count=_visible_face_count, bound=_voxel_bound)
@@ -283,7 +283,7 @@ VOXEL_COUNT = dict(count=_visible_face_count, bound=_voxel_bound)
 register_mode(SurfaceMode(
     "marching-cubes", "Marching cubes", "Our marching cubes with Paul Bourke's case tables, shared edge vertices and "
     "gradient normals (source 001)", origin="ours", **SURFACE, make_filter=_marching_cubes, compiled=True,
-    capabilities=Capabilities(uses_iso=True, preview_stride=2, accepts_selection=True), unique_points=True, **MARCHING_COUNT,
+    capabilities=Capabilities(uses_iso=True, preview_stride=2, accepts_cutaways=True), unique_points=True, **MARCHING_COUNT,
 ))
 register_mode(SurfaceMode(
     "flying-edges", "Flying edges", "Isosurface by VTK's vtkFlyingEdges3D (parallel, with gradient normals)",

@@ -21,7 +21,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from algorithms.references.vtk_selection import mask_image
+from algorithms.references.vtk_cutaway import mask_image
 
 from ..pipeline.content import IGNORE, REDRAW, ViewContent, ViewInputs
 from ..pipeline.props import volume_prop
@@ -57,7 +57,7 @@ class VolumeMapperContent(ViewContent):
 
     def _apply_tools(self, inputs: ViewInputs) -> None:
         """Give the mapper the tools as a mask on its grid (GPU) or a masked copy of the volume (CPU)."""
-        from algorithms.common.selection import removal_field
+        from algorithms.common.cutaway import removal_field
 
         mapper = self.volume.GetMapper()
         tools = inputs.tool_set()
@@ -97,7 +97,7 @@ class VolumeMapperContent(ViewContent):
                 mapper.SetInteractiveSampleDistance(step)
             self.stats["sample_distance_mm"] = step
             return REDRAW
-        if change == "selection":
+        if change == "cutaways":
             self._apply_tools(inputs)
             return REDRAW
         return REDRAW if change == "background" else IGNORE
@@ -108,7 +108,7 @@ class VolumeMapperContent(ViewContent):
 
 
 VOLUME = dict(group="Volume rendering", origin="VTK", input="volume", output="volume",
-              capabilities=Capabilities(uses_transfer_function=True, accepts_selection=True))
+              capabilities=Capabilities(uses_transfer_function=True, accepts_cutaways=True))
 
 register_mode(VolumeMapperMode(
     "vtk-gpu", "GPU ray casting", "VTK's vtkGPUVolumeRayCastMapper (OpenGL; Mesa llvmpipe without a GPU)",

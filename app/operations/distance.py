@@ -30,7 +30,16 @@ from algorithms.common.progress import ProgressCallback, report, scaled
 from ..options import Option
 from . import register_operation
 from .base import Input, Operation, OperationResult
-from .voxelise import DEFAULT_GRID, _check_grid, checked_mesh, output_grid, parse_spacing
+from .voxelise import (
+    DEFAULT_GRID,
+    INSIDE_OPTION,
+    LIKE_INPUT,
+    _check_grid,
+    checked_mesh,
+    grid_options,
+    output_grid,
+    parse_spacing,
+)
 
 #: Bytes per voxel while a distance field is made: values, nearest triangle, mask, and the written copy.
 BYTES_PER_VOXEL = 16
@@ -258,26 +267,18 @@ def mesh_result(item, *, offset_mm: float = 0.0):
     return MeshItem(f"{item.name} surface", polydata=polydata, metadata={"source": item.name}), mesh.seconds
 
 
-_GRID_OPTIONS = (
-    Option("grid", "int", None, f"voxels along the longest side, cubic voxels (default {DEFAULT_GRID} when no "
-           "'like' volume and no spacing is given)", minimum=2, maximum=4096),
-    Option("spacing", "str", None, "voxel size in mm: one number (cubic) or three (x y z), instead of grid"),
-    Option("padding", "int", 4, "voxels of margin around the meshes' bounding box", minimum=0, maximum=1024),
-)
+_GRID_OPTIONS = grid_options(padding=4)
 _DISTANCE_OPTIONS = (
     Option("band", "str", "10%", "width of the exact band: mm (e.g. 3) or per cent of the mesh's height (e.g. 5%)"),
     Option("outside", "str", "clamp", "outside the band: clamp to +-band, or propagate exact nearest-triangle "
            "distances over the whole grid", choices=("clamp", "propagate")),
-    Option("inside", "str", "parity", "sign from voxelisation: parity (closed meshes) or winding number (meshes "
-           "with holes)", choices=("parity", "winding")),
+    INSIDE_OPTION,
 )
 
 register_operation(Distance(
     "distance", "Signed distance field", "A mesh's signed distance field on a grid (mm, negative inside): exact in a "
     "band around the mesh, clamped or propagated outside it",
-    inputs=(Input("mesh", ("mesh",), "the surface mesh"),
-            Input("like", ("volume", "field"), "use this volume's grid (dimensions, spacing, origin, direction)",
-                  optional=True)),
+    inputs=(Input("mesh", ("mesh",), "the surface mesh"), LIKE_INPUT),
     output="field", group="Fields", options=_GRID_OPTIONS + _DISTANCE_OPTIONS,
 ))
 
@@ -288,7 +289,7 @@ register_operation(Csg(
             Input("b", ("mesh", "field", "volume"), "the second solid (subtracted from the first for a difference)"),
             Input("c", ("mesh", "field", "volume"), "a third solid", optional=True),
             Input("d", ("mesh", "field", "volume"), "a fourth solid", optional=True),
-            Input("like", ("volume", "field"), "use this volume's grid", optional=True)),
+            LIKE_INPUT),
     output="field", group="Fields",
     options=(Option("operation", "str", "difference", "union, intersection, or difference (a minus the others)",
                     choices=CSG_OPERATIONS),

@@ -230,19 +230,29 @@ class Voxelise(Operation):
         return OperationResult(item, report)
 
 
+#: The optional input every field operation takes its grid from.
+LIKE_INPUT = Input("like", ("volume", "field"), "use this volume's grid (dimensions, spacing, origin, direction)",
+                   optional=True)
+#: How a field operation tells the inside of a mesh from its outside.
+INSIDE_OPTION = Option("inside", "str", "parity", "inside rule: parity of crossings (closed meshes) or winding number "
+                       "(meshes with holes or self-intersections)", choices=("parity", "winding"))
+
+
+def grid_options(padding: int) -> tuple[Option, ...]:
+    """The options of a field operation's grid around its meshes (unless a ``like`` volume gives it): voxels along
+    the longest side or a spacing, and a margin of ``padding`` voxels by default."""
+    return (
+        Option("grid", "int", None, f"voxels along the meshes' longest side, cubic voxels (default {DEFAULT_GRID} "
+               "when no 'like' volume and no spacing is given)", minimum=2, maximum=4096),
+        Option("spacing", "str", None, "voxel size in mm: one number (cubic) or three (x y z), instead of grid"),
+        Option("padding", "int", padding, "voxels of margin around the meshes' bounding box", minimum=0,
+               maximum=1024),
+    )
+
+
 register_operation(Voxelise(
     "voxelise", "Voxelise mesh", "A closed surface mesh as a mask on a grid: 1 where a voxel centre is inside, by "
     "parity of row crossings (closed meshes) or the generalised winding number (meshes with holes)",
-    inputs=(Input("mesh", ("mesh",), "the surface mesh"),
-            Input("like", ("volume", "field"), "use this volume's grid (dimensions, spacing, origin, direction)",
-                  optional=True)),
-    output="field", group="Fields",
-    options=(
-        Option("grid", "int", None, f"voxels along the mesh's longest side, cubic voxels (default {DEFAULT_GRID} "
-               "when no 'like' volume and no spacing is given)", minimum=2, maximum=4096),
-        Option("spacing", "str", None, "voxel size in mm: one number (cubic) or three (x y z), instead of grid"),
-        Option("padding", "int", 2, "voxels of margin around the mesh's bounding box", minimum=0, maximum=1024),
-        Option("inside", "str", "parity", "inside rule: parity of crossings (closed meshes) or winding number "
-               "(meshes with holes or self-intersections)", choices=("parity", "winding")),
-    ),
+    inputs=(Input("mesh", ("mesh",), "the surface mesh"), LIKE_INPUT),
+    output="field", group="Fields", options=grid_options(padding=2) + (INSIDE_OPTION,),
 ))

@@ -44,7 +44,7 @@ class ViewInputs:
     ``sample_distance`` in mm (None: half the smallest voxel spacing), ``background`` an RGB triple in [0, 1].
     ``interactive`` is True in a window view (VTK's mappers may then coarsen their sampling while the camera moves);
     off-screen renders keep every setting fixed. ``tools`` are the cut-away tools (:class:`algorithms.fields.
-    selection.Tool`, LPS mm) evaluated ``cut_evaluation`` (``binary`` or ``distance``); ``tools_moving`` while one
+    cutaway_tools.Tool`, LPS mm) evaluated ``cut_evaluation`` (``binary`` or ``distance``); ``tools_moving`` while one
     is dragged (contents take the cheap path and refine when it is False again).
     """
 
@@ -67,7 +67,7 @@ class ViewInputs:
         return volume
 
     def tool_set(self, *, moving: bool | None = None):
-        """The visible tools as a :class:`~algorithms.common.selection.ToolSet` in the item's volume frame, or None
+        """The visible tools as a :class:`~algorithms.common.cutaway.ToolSet` in the item's volume frame, or None
         (no tools, or an item without a volume)."""
         if not self.tools or getattr(self.item, "volume", None) is None:
             return None
@@ -146,7 +146,7 @@ class ViewContent(ABC):
 
     def react(self, change: str, renderer, inputs: ViewInputs) -> str:
         """A shared input changed (``"iso"``, ``"transfer_function"``, ``"sample_distance"``, ``"background"``,
-        ``"selection"`` - the cut-away tools):
+        ``"cutaways"`` - the cut-away tools):
         update props in place when that is cheap and say what else is needed (REBUILD, REDRAW, REFRAME, IGNORE)."""
         return IGNORE
 

@@ -56,7 +56,7 @@ class RenderSettings:
     iso: float | None = None
     sample_distance: float | None = None
     camera: Camera | None = None  # a given camera (world, LPS) instead of the view/azimuth/elevation default
-    tools: tuple = ()  # cut-away tools (algorithms.fields.selection.Tool, LPS mm)
+    tools: tuple = ()  # cut-away tools (algorithms.fields.cutaway_tools.Tool, LPS mm)
     cut_evaluation: str = "binary"
 
 
@@ -104,7 +104,7 @@ def render_item(item, settings: RenderSettings, *, progress: ProgressCallback = 
                          sample_distance=settings.sample_distance, background=settings.background,
                          uses_iso=not frame_only or mode.capabilities.uses_iso)
     if settings.tools:
-        if not mode.capabilities.accepts_selection:
+        if not mode.capabilities.accepts_cutaways:
             raise ValueError(f"mode {mode.name!r} does not honour cut-away tools (--cut); see 'voxelscope modes' "
                              "for those that do")
         if getattr(item, "volume", None) is None:

@@ -24,6 +24,7 @@ from algorithms.common.camera import Camera
 from algorithms.common.vtk_bridge import run_algorithm
 
 from ..io.atomic import atomic_output
+from ..io.vtk_writing import write_with_vtk
 from .props import volume_prop
 
 DEFAULT_SIZE = (512, 512)
@@ -260,10 +261,7 @@ def write_png(image: np.ndarray, path, *, overwrite: bool = False) -> Path:
     array = numpy_support.numpy_to_vtk(np.ascontiguousarray(image[::-1]).reshape(-1, channels), deep=True)
     vtk_image.GetPointData().SetScalars(array)
     with atomic_output(path, overwrite=overwrite) as temporary:
-        writer = vtkPNGWriter()
-        writer.SetFileName(str(temporary))
-        writer.SetInputData(vtk_image)
-        writer.Write()
+        write_with_vtk(vtkPNGWriter, vtk_image, temporary)
     return path
 
 

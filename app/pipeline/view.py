@@ -127,7 +127,7 @@ class ViewPipeline:
         if self.inputs is None:
             return
         self.inputs = replace(self.inputs, tools=tuple(tools), cut_evaluation=evaluation, tools_moving=bool(moving))
-        self._input_changed("selection", preview=moving)
+        self._input_changed("cutaways", preview=moving)
 
     def set_overlays(self, items) -> None:
         """Show other items of the scene beside the content: meshes as translucent surfaces (patient coordinates).

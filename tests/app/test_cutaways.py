@@ -52,7 +52,7 @@ def test_cut_render_agrees_with_the_premasked_volume(items, mode):
 def test_modes_that_cannot_cut_say_so():
     from app.modes import modes
 
-    refused = [m for m in modes() if not m.capabilities.accepts_selection and m.output in ("volume", "surface")]
+    refused = [m for m in modes() if not m.capabilities.accepts_cutaways and m.output in ("volume", "surface")]
     if not refused:
         pytest.skip("every volume and surface mode honours tools")
     item = VolumeItem("tiny", volume=_tiny_volume())

@@ -14,16 +14,16 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from algorithms.fields.cutaway_tools import box_tool, cylinder_tool, plane_tool, sphere_tool
+from app.cutaways import mask_tool_from_file
 from app.datasets import ct_head_phantom
 from app.events import Signal
 from app.io import load_volume, save_volume
 from app.measurements import Measurement
 from app.modes import modes_for
-from app.cutaways import mask_tool_from_file
 from app.session import MODEL_FIELDS, VERSION, apply_model_state, model_state, read_session, write_session
 from app.slices import PLANES
 from app.workbench import INTERPOLATIONS, LAYOUTS, MAX_VIEWS, WorkbenchModel, presets_for
-from algorithms.fields.selection import box_tool, cylinder_tool, plane_tool, sphere_tool
 
 DATA = Path(__file__).parent / "data"
 
@@ -252,7 +252,7 @@ def _made_items(volume):
     """A distance field on an oblique grid, a surface and a tetrahedral mesh, as operations make them."""
     import pyvista as pv
 
-    from algorithms.fields.selection import rotation_matrix
+    from algorithms.fields.cutaway_tools import rotation_matrix
     from app.scene import FieldItem, MeshItem, TetMeshItem
     from app.volume import Volume
 

@@ -10,13 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
-from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
 from vtkmodules.vtkCommonExecutionModel import vtkAlgorithm
 
 from ...common.grid import Grid
-from ...common.progress import OperationCancelled
-from ...common.vtk_bridge import array_from_image, progress_for
+from ...common.vtk_bridge import array_from_image, progress_for, request_data
 from ..csg import OPERATIONS, combine
 from ..voxelise.filter import _triangles_of, grid_of_image, image_on_grid
 from .core import OUTSIDE_RULES, signed_distance
@@ -70,6 +68,7 @@ class DistanceFieldFilter(VTKPythonAlgorithmBase):
     def GetResult(self):  # noqa: N802
         return self._result
 
+    @request_data
     def RequestData(self, request, in_info, out_info):  # noqa: N802
         mesh = vtkPolyData.GetData(in_info[0], 0)
         output = vtkImageData.GetData(out_info, 0)
@@ -79,18 +78,10 @@ class DistanceFieldFilter(VTKPythonAlgorithmBase):
             if image is not None and image.GetNumberOfPoints() > 0:
                 grid = grid_of_image(image)
         if grid is None:
-            self.InvokeEvent(vtkCommand.ErrorEvent, "DistanceFieldFilter needs a grid: connect an image to port 1 "
-                                                    "or call SetGrid")
-            return 0
-        try:
-            points, triangles = _triangles_of(mesh)
-            self._result = signed_distance(points, triangles, grid, band_mm=self._band, outside=self._outside,
-                                           inside=self._inside, progress=progress_for(self))
-        except OperationCancelled:
-            return 1
-        except ValueError as error:
-            self.InvokeEvent(vtkCommand.ErrorEvent, str(error))
-            return 0
+            raise ValueError("DistanceFieldFilter needs a grid: connect an image to port 1 or call SetGrid")
+        points, triangles = _triangles_of(mesh)
+        self._result = signed_distance(points, triangles, grid, band_mm=self._band, outside=self._outside,
+                                       inside=self._inside, progress=progress_for(self))
         output.ShallowCopy(image_on_grid(self._result.values, grid, "distance"))
         return 1
 
@@ -124,18 +115,15 @@ class CsgFilter(VTKPythonAlgorithmBase):
             self._blend = float(blend_mm)
             self.Modified()
 
+    @request_data
     def RequestData(self, request, in_info, out_info):  # noqa: N802
         images = [vtkImageData.GetData(in_info[0], c) for c in range(self.GetNumberOfInputConnections(0))]
         output = vtkImageData.GetData(out_info, 0)
-        try:
-            grids = [grid_of_image(image) for image in images]
-            for n, grid in enumerate(grids[1:], start=2):
-                if not grid.same_as(grids[0]):
-                    raise ValueError(f"field {n} is on another grid than field 1; resample them onto one grid first")
-            fields = [np.asarray(array_from_image(image), np.float32) for image in images]
-            values = combine(fields, self._operation, blend_mm=self._blend)
-        except ValueError as error:
-            self.InvokeEvent(vtkCommand.ErrorEvent, str(error))
-            return 0
+        grids = [grid_of_image(image) for image in images]
+        for n, grid in enumerate(grids[1:], start=2):
+            if not grid.same_as(grids[0]):
+                raise ValueError(f"field {n} is on another grid than field 1; resample them onto one grid first")
+        fields = [np.asarray(array_from_image(image), np.float32) for image in images]
+        values = combine(fields, self._operation, blend_mm=self._blend)
         output.ShallowCopy(image_on_grid(values, grids[0], "distance"))
         return 1

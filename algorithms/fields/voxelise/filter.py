@@ -12,14 +12,12 @@ from __future__ import annotations
 import numpy as np
 from vtkmodules.util import numpy_support
 from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
-from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
 from vtkmodules.vtkCommonExecutionModel import vtkAlgorithm, vtkStreamingDemandDrivenPipeline
 from vtkmodules.vtkFiltersCore import vtkTriangleFilter
 
 from ...common.grid import Grid
-from ...common.progress import OperationCancelled
-from ...common.vtk_bridge import direction_matrix, polydata_arrays, progress_for, run_algorithm
+from ...common.vtk_bridge import direction_matrix, polydata_arrays, progress_for, request_data, run_algorithm
 from .core import INSIDE_RULES, voxelise_with_report
 
 _SDDP = vtkStreamingDemandDrivenPipeline
@@ -137,23 +135,16 @@ class VoxeliseFilter(VTKPythonAlgorithmBase):
             reference.Set(_SDDP.UPDATE_EXTENT(), reference.Get(_SDDP.WHOLE_EXTENT()), 6)
         return 1
 
+    @request_data
     def RequestData(self, request, in_info, out_info):  # noqa: N802
         mesh = vtkPolyData.GetData(in_info[0], 0)
         output = vtkImageData.GetData(out_info, 0)
         grid = self._output_grid(in_info)
         if grid is None:
-            self.InvokeEvent(vtkCommand.ErrorEvent, "VoxeliseFilter needs a grid: connect an image to port 1 or "
-                                                    "call SetGrid")
-            return 0
-        try:
-            points, triangles = _triangles_of(mesh)
-            mask, self._report = voxelise_with_report(points, triangles, grid, inside=self._inside,
-                                                      progress=progress_for(self))
-        except OperationCancelled:
-            return 1
-        except ValueError as error:
-            self.InvokeEvent(vtkCommand.ErrorEvent, str(error))
-            return 0
+            raise ValueError("VoxeliseFilter needs a grid: connect an image to port 1 or call SetGrid")
+        points, triangles = _triangles_of(mesh)
+        mask, self._report = voxelise_with_report(points, triangles, grid, inside=self._inside,
+                                                  progress=progress_for(self))
         output.ShallowCopy(image_on_grid(mask, grid))
         return 1
 

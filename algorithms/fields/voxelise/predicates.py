@@ -83,7 +83,7 @@ def _grow(expansion, length, value):
     return out
 
 
-@njit(cache=True, forceinline=False)  # rarely taken: stated, not inherited (common.selection, compile time)
+@njit(cache=True, forceinline=False)  # rarely taken: stated, not inherited (common.cutaway, compile time)
 def _orient2d_exact_sign(ax, ay, bx, by, cx, cy):
     """Exact sign of ``(a - c) x (b - c)``: every difference and product split into exact double pairs and summed
     as an expansion, whose largest component carries the sign."""

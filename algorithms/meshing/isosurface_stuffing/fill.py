@@ -187,7 +187,7 @@ def count(sign_o, sign_i, row_o, row_i, counts, faces, n_faces, surface_faces, r
     shape_o = sign_o.shape
     shape_i = sign_i.shape
     for k in prange(nzo):
-        layer = np.int64(k)  # for the helpers (see algorithms.common.selection, compile time)
+        layer = np.int64(k)  # for the helpers (see algorithms.common.cutaway, compile time)
         slots = np.empty((4, 4), dtype=np.int64)
         on_surface = np.empty(10, dtype=np.bool_)
         for j in range(nyo):
@@ -223,7 +223,7 @@ def stuff(sign_o, sign_i, vid_o, vid_i, ref_o, ref_i, rec_cut, n_lattice, counts
     shape_o = sign_o.shape
     shape_i = sign_i.shape
     for k in prange(nzo):
-        layer = np.int64(k)  # for the helpers (see algorithms.common.selection, compile time)
+        layer = np.int64(k)  # for the helpers (see algorithms.common.cutaway, compile time)
         slots = np.empty((4, 4), dtype=np.int64)
         owner = np.empty(5, dtype=np.int64)
         ids = np.empty(10, dtype=np.int64)

@@ -5,12 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
-from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkCommonDataModel import vtkImageData, vtkUnstructuredGrid
 
 from ...common.mesh import TetMesh
-from ...common.progress import OperationCancelled
-from ...common.vtk_bridge import array_from_image, direction_matrix, progress_for
+from ...common.vtk_bridge import array_from_image, direction_matrix, progress_for, request_data
 from .core import isosurface_stuffing, resolve_alphas
 
 
@@ -52,6 +50,7 @@ class IsosurfaceStuffingFilter(VTKPythonAlgorithmBase):
     def GetAlpha(self) -> str:  # noqa: N802
         return self._alpha
 
+    @request_data
     def RequestData(self, request, in_info, out_info):  # noqa: N802
         from algorithms.compare.tet_quality import min_max_dihedral
 
@@ -59,15 +58,9 @@ class IsosurfaceStuffingFilter(VTKPythonAlgorithmBase):
         output = vtkUnstructuredGrid.GetData(out_info, 0)
         spacing = np.array(image.GetSpacing())
         first_index = np.array(image.GetExtent()[::2], dtype=np.float64)
-        try:
-            result = isosurface_stuffing(array_from_image(image), self._iso, h=self._h, spacing=spacing,
-                                         origin=spacing * first_index, alpha=self._alpha,
-                                         progress=progress_for(self))
-        except OperationCancelled:
-            return 1
-        except ValueError as error:
-            self.InvokeEvent(vtkCommand.ErrorEvent, str(error))
-            return 0
+        result = isosurface_stuffing(array_from_image(image), self._iso, h=self._h, spacing=spacing,
+                                     origin=spacing * first_index, alpha=self._alpha,
+                                     progress=progress_for(self))
         direction = direction_matrix(image)
         points = result.mesh.points @ direction.T + np.asarray(image.GetOrigin())
         tets = result.mesh.tetrahedra if np.linalg.det(direction) > 0 else result.mesh.tetrahedra[:, [1, 0, 2, 3]]

@@ -109,7 +109,7 @@ from scipy.ndimage import distance_transform_cdt
 from ...common.camera import Camera, checked_camera
 from ...common.progress import ProgressCallback, report, scaled
 from ...common.render_result import RenderResult
-from ...common.selection import ToolSet, packed_tools
+from ...common.cutaway import ToolSet, packed_tools
 from ...common.transfer import TransferTable, checked_table
 from ...common.validation import (
     validated_count,
@@ -381,7 +381,7 @@ class RaymarchRenderer:
                progress: ProgressCallback = None) -> RenderResult:
         """One frame seen by ``camera`` (volume frame) at ``width`` x ``height`` pixels.
 
-        ``tools`` (:class:`~algorithms.common.selection.ToolSet` in the volume frame) cuts the volume away per sample
+        ``tools`` (:class:`~algorithms.common.cutaway.ToolSet` in the volume frame) cuts the volume away per sample
         (source 002, 2.5 and 3.3.1): removed samples contribute nothing, the cut face is shaded with the tool's
         normal (``"phong"``), removed matter casts no shadow (``"scatter"``); the set-up is untouched, so moving a
         tool costs nothing but the frame.

@@ -19,9 +19,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ...common.pixel_rays import pixel_ray
-from ...common.sampling import cell_of, gradient, jitter_offset, sample_volume, second_jitter_offset, trilinear
-from ...common.selection import (
+from ...common.cutaway import (
     clear_at,
     cut_band,
     cut_normals_on,
@@ -31,7 +29,9 @@ from ...common.selection import (
     tool_count,
     visibility,
 )
-from ...common.selection_bounds import bounds_margin, ray_interval
+from ...common.cutaway_bounds import bounds_margin, ray_interval
+from ...common.pixel_rays import pixel_ray
+from ...common.sampling import cell_of, gradient, jitter_offset, sample_volume, second_jitter_offset, trilinear
 
 #: Lighting model codes shared with :mod:`algorithms.rendering.raymarch.core`.
 EMISSION = 0
@@ -147,7 +147,7 @@ def _light_transmittance(volume, x, y, z, lx, ly, lz, extinction, table_min, tab
     ``(lx, ly, lz)`` is the index-space direction towards the light (unit world direction / spacing). The segment
     is split into ``light_samples`` equal parts sampled at ``offset`` (0.5: their midpoints; the pixel's jitter
     otherwise), a Riemann sum of source 001's integral: ``T = exp(-delta * sum(sigma_j))`` with ``sigma`` the
-    extinction per mm. Cut-away ``tools`` (:mod:`algorithms.common.selection`) remove absorbing matter on the way
+    extinction per mm. Cut-away ``tools`` (:mod:`algorithms.common.cutaway`) remove absorbing matter on the way
     too (``sx, sy, sz``: the spacing, to evaluate them in mm).
     """
     t_near, t_far = _slab(x, y, z, lx, ly, lz, tight[0], tight[1], tight[2], tight[3], tight[4], tight[5])
@@ -437,7 +437,7 @@ def render_rows(
     index box ``(low_x, low_y, low_z, high_x, high_y, high_z)`` around the non-empty bricks; ``light`` the unit
     volume-frame vector towards the light (ignored for a headlight), ``eye`` the camera position (volume frame,
     mm), ``light_box`` the index box the light march stays in, ``tools`` the packed cut-away tools
-    (:meth:`algorithms.common.selection.ToolSet.packed`, renderer frame). ``jitter`` shifts each ray's samples by its pixel's
+    (:meth:`algorithms.common.cutaway.ToolSet.packed`, renderer frame). ``jitter`` shifts each ray's samples by its pixel's
     :func:`~algorithms.common.sampling.jitter_offset` of pass ``pass_index``. ``counts[row]`` receives (rays hitting the
     box, samples evaluated, samples skipped, rays stopped by early termination).
     """

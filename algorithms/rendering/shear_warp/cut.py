@@ -2,7 +2,7 @@
 
 The run-length encoded volume (source 004, section 5.2.2) is never changed when a tool moves: each sample that the
 compositing loop of :func:`algorithms.rendering.shear_warp.kernels.composite_rle` resamples from a slice is tested
-against the tools (:mod:`algorithms.common.selection`) at its position in the slice before it is composited; a
+against the tools (:mod:`algorithms.common.cutaway`) at its position in the slice before it is composited; a
 removed sample is skipped (binary evaluation) or weighted by the smooth ramp of the distance evaluation (source 002,
 section 3.3.1). Within the cut band, with shading, the sample is shaded with the tool's normal (quantised on the
 normal table's grid, source 004, 5.2.7) instead of the data gradient. The transparent-run and opaque-pixel skipping
@@ -10,7 +10,7 @@ of the encoding stay valid: a tool only removes matter.
 
 Coordinates: the kernel evaluates the tools in the *standard* index frame of the principal axis, ``(i, j, k)`` =
 (voxel along the scanline, scanline, slice) of the rendered grid; :func:`tools_in_standard_frame` maps a
-:class:`~algorithms.common.selection.ToolSet` given in the volume frame (mm) to it, so distances stay in mm.
+:class:`~algorithms.common.cutaway.ToolSet` given in the volume frame (mm) to it, so distances stay in mm.
 Only parallel, unjittered frames of the run-length encoded volume take tools (the path of source 004's
 compositing); perspective and jittered frames refuse them with a ValueError.
 """
@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit, prange
 
 from ...common.atomics import take
-from ...common.selection import (
+from ...common.cutaway import (
     FAR,
     ToolSet,
     clear_at,
@@ -34,7 +34,7 @@ from ...common.selection import (
     removal_normal,
     visibility,
 )
-from ...common.selection_bounds import bounds_margin, ray_interval, reach_box
+from ...common.cutaway_bounds import bounds_margin, ray_interval, reach_box
 from .factorisation import STANDARD_AXES
 from .kernels import (
     _A_LEFT,
@@ -106,9 +106,9 @@ def composite_rle_cut(
 ):
     """:func:`~algorithms.rendering.shear_warp.kernels.composite_rle` with the tools' per-sample test (module notes).
 
-    ``tools``: packed :class:`~algorithms.common.selection.ToolSet` in the standard index frame; ``reach``: ``(j
-    low, j high, k low, k high)`` of its :func:`~algorithms.common.selection_bounds.reach_box` (a line of samples
-    outside it meets no tool, and skips :func:`~algorithms.common.selection_bounds.ray_interval`); ``axes``: the
+    ``tools``: packed :class:`~algorithms.common.cutaway.ToolSet` in the standard index frame; ``reach``: ``(j
+    low, j high, k low, k high)`` of its :func:`~algorithms.common.cutaway_bounds.reach_box` (a line of samples
+    outside it meets no tool, and skips :func:`~algorithms.common.cutaway_bounds.ray_interval`); ``axes``: the
     principal axis's :data:`STANDARD_AXES`; ``spacing``: the rendered grid's ``(sx, sy, sz)``; ``encoding``,
     ``half_grid``, ``zero_index``: the normal table's quantisation (for the cut's normal with shading).
     ``counts[task, 3]`` receives the samples the tools removed.

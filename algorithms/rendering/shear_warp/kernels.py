@@ -505,6 +505,26 @@ def _inside_columns(slope, intercept, low, high, width):
     return first, max(first, stop)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def add_bilinear_at_edge(intermediate, u0, v0, fu, fv, out, row, col):
+    """Add to ``out[row, col]`` the bilinear sample of ``intermediate`` in the cell with lower corner ``(u0, v0)``
+    at fractions ``(fu, fv)`` (float32), counting the corners outside the image as zero: the warps' sample where
+    the cell leaves the intermediate image."""
+    h_in, w_in, _ = intermediate.shape
+    for dv in range(2):
+        vv = v0 + dv
+        if vv < 0 or vv >= h_in:
+            continue
+        wv = fv if dv else np.float32(1.0) - fv
+        for du in range(2):
+            uu = u0 + du
+            if uu < 0 or uu >= w_in:
+                continue
+            weight = wv * (fu if du else np.float32(1.0) - fu)
+            for c in range(4):
+                out[row, col, c] += weight * intermediate[vv, uu, c]
+
+
 @njit(cache=True, nogil=True, parallel=True)
 def warp_bilinear(intermediate, inverse, height, width):
     """Resample the intermediate image into the final ``(height, width, 4)`` image (row 0 at the top).
@@ -540,16 +560,5 @@ def warp_bilinear(intermediate, inverse, height, width):
                     out[row, col, c] = (w00 * intermediate[v0, u0, c] + w01 * intermediate[v0, u0 + 1, c]
                                         + w10 * intermediate[v0 + 1, u0, c] + w11 * intermediate[v0 + 1, u0 + 1, c])
                 continue
-            for dv_ in range(2):
-                vv = v0 + dv_
-                if vv < 0 or vv >= h_in:
-                    continue
-                wv = fv if dv_ else np.float32(1.0) - fv
-                for du_ in range(2):
-                    uu = u0 + du_
-                    if uu < 0 or uu >= w_in:
-                        continue
-                    weight = wv * (fu if du_ else np.float32(1.0) - fu)
-                    for c in range(4):
-                        out[row, col, c] += weight * intermediate[vv, uu, c]
+            add_bilinear_at_edge(intermediate, u0, v0, fu, fv, out, row, col)
     return out

@@ -47,7 +47,7 @@ from numba import njit, prange
 from ...common.camera import Camera
 from ...common.validation import validated_image_size, validated_shape, validated_spacing
 from .factorisation import STANDARD_AXES
-from .kernels import _accumulate, _task_rows, find_opaque_run_end
+from .kernels import _accumulate, _composite, _task_rows, add_bilinear_at_edge, find_opaque_run_end
 
 
 @dataclass(frozen=True)
@@ -237,14 +237,8 @@ def _over(image, offsets, v, u, red, green, blue, alpha, ratio, opacity_threshol
         corrected = np.float32(1.0 - (1.0 - alpha) ** ratio)
         factor = corrected / alpha
         red, green, blue, alpha = red * factor, green * factor, blue * factor, corrected
-    transparency = np.float32(1.0) - image[v, u, 3]
-    image[v, u, 0] += transparency * red
-    image[v, u, 1] += transparency * green
-    image[v, u, 2] += transparency * blue
-    accumulated = image[v, u, 3] + transparency * alpha
-    image[v, u, 3] = accumulated
-    if accumulated >= opaque_threshold:
-        offsets[v, u] = 1
+    # (threshold -1: the sample was tested above, before the correction, and is composited whatever it became)
+    _composite(image, offsets, v, u, red, green, blue, alpha, -1.0, opaque_threshold)
     return True
 
 
@@ -360,16 +354,5 @@ def warp_projective(intermediate, inverse, height, width):
             v0 = np.int64(math.floor(v))
             fu = np.float32(u - u0)
             fv = np.float32(v - v0)
-            for dv in range(2):
-                vv = v0 + dv
-                if vv < 0 or vv >= h_in:
-                    continue
-                wv = fv if dv else np.float32(1.0) - fv
-                for du in range(2):
-                    uu = u0 + du
-                    if uu < 0 or uu >= w_in:
-                        continue
-                    weight = wv * (fu if du else np.float32(1.0) - fu)
-                    for c in range(4):
-                        out[row, col, c] += weight * intermediate[vv, uu, c]
+            add_bilinear_at_edge(intermediate, u0, v0, fu, fv, out, row, col)
     return out

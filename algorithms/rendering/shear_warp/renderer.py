@@ -276,7 +276,7 @@ class ShearWarpRenderer:
                progress: ProgressCallback = None, tools=None) -> RenderResult:
         """Render one frame of ``camera`` (volume frame; parallel or perspective) at ``width x height`` pixels.
 
-        ``tools`` (a :class:`~algorithms.common.selection.ToolSet` in the volume frame, parallel unjittered frames
+        ``tools`` (a :class:`~algorithms.common.cutaway.ToolSet` in the volume frame, parallel unjittered frames
         only) are tested per sample at compositing (:mod:`.cut`; the encoding is not changed).
 
         ``pass_index`` is the jitter pass (see :mod:`algorithms.common.sampling`).

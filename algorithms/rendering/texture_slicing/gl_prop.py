@@ -112,7 +112,7 @@ class SliceStackProp:
 
     def compute(self, camera: Camera, width: int, height: int, *, tools=None, progress: ProgressCallback = None):
         """The slices and textures for ``camera`` as VTK data objects, without touching the actors, so it may run
-        off the thread that renders; ``tools`` (a :class:`~algorithms.common.selection.ToolSet`, volume frame) cut
+        off the thread that renders; ``tools`` (a :class:`~algorithms.common.cutaway.ToolSet`, volume frame) cut
         the textures per texel. Returns ``(parts, stats)``; hand ``parts`` to :meth:`show` on that thread."""
         start = time.perf_counter()
         layout = self.slicer.layout(camera, width, height)

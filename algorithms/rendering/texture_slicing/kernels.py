@@ -11,9 +11,9 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ...common.cutaway import cut_band, cut_normals_on, removal, removal_normal, tool_count, visibility
 from ...common.pixel_rays import pixel_ray
 from ...common.sampling import gradient, jitter_offset, sample_volume
-from ...common.selection import cut_band, cut_normals_on, removal, removal_normal, tool_count, visibility
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -37,7 +37,7 @@ def fill_textures(volume, inverse_spacing, box_min, box_max, origins, u_steps, v
     ``(j - 1/2) depth_step`` mm further along its pixel's ray, ``j`` the pixel's jitter of pass ``pass_index``,
     i.e. anywhere in its slab instead of on the slab's middle plane.
 
-    ``tools`` (packed :class:`algorithms.common.selection.ToolSet`, volume frame): texels the tools remove get zero
+    ``tools`` (packed :class:`algorithms.common.cutaway.ToolSet`, volume frame): texels the tools remove get zero
     opacity (binary) or their weight (distance), per texel - the data volume is untouched (source 002, 2.5.1 does the
     same in its fragment shader); shaded texels within the cut band take the tool's normal.
     """

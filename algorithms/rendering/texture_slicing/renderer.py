@@ -17,7 +17,7 @@ from ...common.camera import Camera, checked_camera
 from ...common.mesh import csr_ranks
 from ...common.progress import ProgressCallback, report
 from ...common.render_result import RenderResult
-from ...common.selection import ToolSet, packed_tools
+from ...common.cutaway import ToolSet, packed_tools
 from ...common.transfer import TransferTable, checked_table
 from ...common.validation import (
     validated_count,

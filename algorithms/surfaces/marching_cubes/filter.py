@@ -12,9 +12,8 @@ from vtkmodules.vtkCommonCore import vtkCommand, vtkPoints
 from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkImageData, vtkPolyData
 from vtkmodules.vtkCommonMisc import vtkContourValues
 
-from ...common.progress import OperationCancelled
 from ...common.validation import validated_count
-from ...common.vtk_bridge import array_from_image, direction_matrix, progress_for
+from ...common.vtk_bridge import array_from_image, direction_matrix, progress_for, request_data
 from .core import MarchingCubesMesh, marching_cubes
 
 
@@ -130,6 +129,7 @@ class MarchingCubesFilter(VTKPythonAlgorithmBase):
         return self._stride
 
     # -- pipeline -----------------------------------------------------------------------------------------------
+    @request_data
     def RequestData(self, request, in_info, out_info):  # noqa: N802
         image = vtkImageData.GetData(in_info[0], 0)
         output = vtkPolyData.GetData(out_info, 0)
@@ -139,21 +139,15 @@ class MarchingCubesFilter(VTKPythonAlgorithmBase):
         spacing = np.array(image.GetSpacing())
         first_index = np.array(image.GetExtent()[::2], dtype=np.float64)
         direction = direction_matrix(image)
-        try:
-            mesh = marching_cubes(
-                array_from_image(image),
-                values,
-                spacing=spacing,
-                origin=spacing * first_index,
-                stride=self._stride,
-                normals=self._compute_normals,
-                progress=progress_for(self),
-            )
-        except OperationCancelled:
-            return 1  # VTK's convention: an aborted filter returns an empty output
-        except ValueError as error:
-            self.InvokeEvent(vtkCommand.ErrorEvent, str(error))
-            return 0
+        mesh = marching_cubes(
+            array_from_image(image),
+            values,
+            spacing=spacing,
+            origin=spacing * first_index,
+            stride=self._stride,
+            normals=self._compute_normals,
+            progress=progress_for(self),
+        )
         if not np.allclose(direction, np.eye(3)):
             mesh = MarchingCubesMesh(
                 points=(mesh.points @ direction.T).astype(np.float32),

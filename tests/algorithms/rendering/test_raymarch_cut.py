@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from algorithms.fields.selection import box_tool, sphere_tool, tool_set
+from algorithms.fields.cutaway_tools import box_tool, sphere_tool, tool_set
 from algorithms.rendering.raymarch import RaymarchRenderer
 
 
@@ -53,7 +53,7 @@ def _ball_mask_tool(mode, *, role="mask"):
     """A ball of radius 35 mm with a wedge cut out of it, on a 40-voxel grid, placed by a rotated, anisotropically
     scaled transform (so the leap's singular-value scaling matters)."""
     from algorithms.common.grid import Grid
-    from algorithms.fields.selection import grid_tool, rotation_matrix
+    from algorithms.fields.cutaway_tools import grid_tool, rotation_matrix
 
     grid = Grid.around([-40, 40, -40, 40, -40, 40], voxels=40, padding=2)
     k, j, i = np.indices(grid.shape)
@@ -97,7 +97,7 @@ def test_a_mask_tool_shades_its_grid_box_with_the_data_gradient_away_from_the_cu
     """A binary-mask tool's field is +-h/2 everywhere off the cut; a kept sample in its grid box is not "on the cut"
     (before the band was kept below h/2, such samples took a vanishing tool gradient: ambient light only)."""
     from algorithms.common.grid import Grid
-    from algorithms.fields.selection import grid_tool
+    from algorithms.fields.cutaway_tools import grid_tool
 
     volume, camera, table = scene
     bounds = np.asarray(volume.grid.world_bounds)
@@ -113,7 +113,7 @@ def test_a_mask_tool_shades_its_grid_box_with_the_data_gradient_away_from_the_cu
 
 
 def _every_kind_of_tool(mode):
-    from algorithms.fields.selection import cylinder_tool, plane_tool
+    from algorithms.fields.cutaway_tools import cylinder_tool, plane_tool
 
     return [sphere_tool((20.0, -60.0, 20.0), 45.0, mode=mode),
             box_tool((-40.0, -40.0, 40.0), (60, 50, 70), (0, 20, 45), mode=mode),

@@ -548,7 +548,7 @@ def test_testing_tools_only_where_a_line_of_samples_meets_them_leaves_the_image_
     # margin of one (ray_interval), outside a keep tool it removes without testing, and it leaps over samples the
     # tools surely remove. The same image as testing every sample.
     from algorithms.common.grid import Grid
-    from algorithms.fields.selection import (box_tool, cylinder_tool, grid_tool, plane_tool, rotation_matrix,
+    from algorithms.fields.cutaway_tools import (box_tool, cylinder_tool, grid_tool, plane_tool, rotation_matrix,
                                              sphere_tool, tool_set)
 
     volume = ct_head_phantom(shape=(54, 128, 128), spacing=(1.875, 1.875, 4.0))

@@ -144,3 +144,26 @@ def test_temporary_names_are_recognisable_and_keep_the_extension(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert (tmp_path / "scan.nii.gz").stat().st_mode & 0o777 == 0o666 & ~mask  # not the 0600 of a temporary
+
+
+def test_a_vtk_writer_that_cannot_open_its_file_is_an_error(tmp_path):
+    """VTK writers report a failure through an error event, not an exception: ``write_with_vtk`` raises it."""
+    from vtkmodules.vtkIOImage import vtkPNGWriter
+
+    from app.io.vtk_writing import write_with_vtk
+
+    image = Volume(np.zeros((1, 8, 8), dtype=np.uint8), spacing=(1.0, 1.0, 1.0)).to_vtk()
+    with pytest.raises(OSError, match="CannotOpenFileError") as caught:
+        write_with_vtk(vtkPNGWriter, image, tmp_path / "no such folder" / "x.png")
+    assert caught.value.errno == errno.EIO
+    write_with_vtk(vtkPNGWriter, image, tmp_path / "x.png")  # the same call on a good path writes
+    assert (tmp_path / "x.png").stat().st_size > 0
+
+
+def test_a_screenshot_on_a_full_disk_is_refused_and_leaves_nothing(tiny_disk):
+    from app.pipeline.offscreen import write_png
+
+    noise = np.random.default_rng(1).integers(0, 256, (400, 400, 3), dtype=np.uint8)  # about 480 kB as PNG
+    with pytest.raises(VolumeWriteError, match=rf"^{tiny_disk}/shot\.png: could not be written: the disk is full"):
+        write_png(noise, tiny_disk / "shot.png")
+    assert _left(tiny_disk) == []

@@ -1,5 +1,5 @@
 """VTK's own way of cutting a volume with a shape: ``vtkImplicitFunctionToImageStencil`` feeding ``vtkImageStencil``,
-the reference our per-sample tools (:mod:`algorithms.common.selection`, source 002 section 2.5) are checked against
+the reference our per-sample tools (:mod:`algorithms.common.cutaway`, source 002 section 2.5) are checked against
 voxel for voxel; and the masks VTK's volume mappers take.
 
 The shapes are VTK implicit functions placed by a ``vtkTransform`` (VTK applies an implicit function's transform to

@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from algorithms.common.cutaway import removal_field, removal_normals, removal_values
 from algorithms.common.grid import Grid
-from algorithms.common.selection import removal_field, removal_normals, removal_values
-from algorithms.fields.selection import (
+from algorithms.fields.cutaway_tools import (
     box_tool,
     cut_volume,
     cylinder_tool,
@@ -20,7 +20,7 @@ from algorithms.fields.selection import (
     sphere_tool,
     tool_set,
 )
-from algorithms.references.vtk_selection import implicit_function, stencil_mask
+from algorithms.references.vtk_cutaway import implicit_function, stencil_mask
 
 SHAPE = (41, 53, 67)  # (nz, ny, nx)
 SPACING = (0.83, 1.07, 1.61)  # (sx, sy, sz) mm: anisotropic on purpose
@@ -139,7 +139,7 @@ def _leap_case(mode, evaluation):
 def test_grid_tool_leaps_stay_inside_the_removed_region(mode, evaluation):
     # The leap of a grid tool (its depth table made once, scaled by the matrix's largest singular value) must be
     # conservative: every point closer than the leap is still fully removed (g < 0, or g <= -width/2).
-    from algorithms.common.selection import leap_at
+    from algorithms.common.cutaway import leap_at
 
     tools = _leap_case(mode, evaluation)
     packed = tools.packed()

@@ -5,7 +5,7 @@ Method: source 002 (Kähler, *Vergleich von Volumenmodellen*, MSc thesis, TU Kai
 (a selection volume with its own resolution and an affine transform ``M`` relative to the data; a data sample at
 ``p_d`` is discarded where the tool is non-zero at ``M^-1 p_d``) and section 3.3.1 (``f_1 \\ f_2 = max(f_1, -f_2)``
 on distance fields: smooth cut surfaces with correct normals). The per-sample evaluation is
-:mod:`algorithms.common.selection`; this module builds the tools and applies them on grids.
+:mod:`algorithms.common.cutaway`; this module builds the tools and applies them on grids.
 
 A :class:`Tool` is a shape in its own frame placed by a rigid 4x4 ``matrix`` (tool frame -> LPS mm): a box (full
 sizes), a sphere (radius), a cylinder (radius and height, axis along the tool's z), a half-space (the side the
@@ -28,9 +28,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..common.grid import Grid
-from ..common.progress import ProgressCallback, report
-from ..common.selection import (
+from ..common.cutaway import (
     EVALUATIONS,
     FAR,
     KEEP,
@@ -42,6 +40,8 @@ from ..common.selection import (
     grid_leap_depths,
     removal_field,
 )
+from ..common.grid import Grid
+from ..common.progress import ProgressCallback, report
 
 #: Largest grid (voxels) a grid tool may hold: tools are small by design (source 002: "in der Regel kleiner").
 MAX_TOOL_VOXELS = 64 * 1024 * 1024
@@ -151,7 +151,7 @@ class Tool:
                        mode=self.mode if mode is None else mode, visible=self.visible if visible is None else visible)
 
     def leap_depths(self, evaluation: str = "binary", width: float = 1.0) -> np.ndarray:
-        """The grid tool's leap depth table (:func:`~algorithms.common.selection.grid_leap_depths`) for its mode and
+        """The grid tool's leap depth table (:func:`~algorithms.common.cutaway.grid_leap_depths`) for its mode and
         this evaluation, made on first use and kept (moving the tool does not change it)."""
         key = (self.mode, evaluation, float(width) if evaluation == "distance" else 0.0)
         entry = self.leap_cache.get(key)
@@ -161,7 +161,7 @@ class Tool:
         return entry[1]
 
     def clear_depths(self, margin: float = 0.0) -> np.ndarray:
-        """The grid tool's clearance table (:func:`~algorithms.common.selection.grid_clear_depths`) for its mode and
+        """The grid tool's clearance table (:func:`~algorithms.common.cutaway.grid_clear_depths`) for its mode and
         this margin (mm of its field), made on first use and kept like :meth:`leap_depths`."""
         key = (self.mode, "clear", float(margin))
         entry = self.leap_cache.get(key)
@@ -282,7 +282,7 @@ def mesh_tool(points, triangles, *, voxels: int = 64, mode: str = "remove", tran
 # -- the compact form -----------------------------------------------------------------------------------------------
 def tool_set(tools, frame_to_world=None, *, evaluation: str = "binary", width: float = 1.0, band: float | None = None,
              cut_normals: bool = True) -> ToolSet:
-    """The visible ``tools`` as a :class:`~algorithms.common.selection.ToolSet` for a renderer whose frame maps to
+    """The visible ``tools`` as a :class:`~algorithms.common.cutaway.ToolSet` for a renderer whose frame maps to
     LPS mm by ``frame_to_world`` (4x4; default identity). ``width``: the distance evaluation's transition (mm; pass
     the smallest voxel spacing); ``band``: depth of cut shading (mm; default 1.5 ``width``). With a binary-mask grid
     tool the band stays below the mask's level ``h/2`` (its field is ``+-h/2`` away from the cut, see

@@ -1,7 +1,7 @@
 """Where along a ray cut-away tools can matter: per-ray bounds, keep clips and removed chords (issue 15).
 
 Before its first sample, a ray (in shear-warp: a line of samples of one slice) meets every tool once, in the tool's
-own frame, where it stays a line; the renderers then test the tools (:mod:`algorithms.common.selection`) only on the
+own frame, where it stays a line; the renderers then test the tools (:mod:`algorithms.common.cutaway`) only on the
 part of the ray within the test margin of some tool, clip the ray to the inside of every ``keep`` tool and jump the
 longest chord through a ``remove`` shape at once. All three are exact: the image equals the per-sample test of
 source 002 (Kähler, *Vergleich von Volumenmodellen*, MSc thesis, TU Kaiserslautern, about 2009, section 2.5) at
@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .selection import BINARY, BOX, CYLINDER, GRID, HALFSPACE, REMOVE, SPHERE, to_tool
+from .cutaway import BINARY, BOX, CYLINDER, GRID, HALFSPACE, REMOVE, SPHERE, to_tool
 
 
 @njit(cache=True, nogil=True, forceinline=True)
@@ -141,7 +141,7 @@ def bounds_margin(tools, cut_normals):
 
 def reach_box(tools: tuple, margin: float) -> tuple[np.ndarray, np.ndarray]:
     """The box (renderer frame, ``low``, ``high``; 3 each) outside which every tool of ``tools`` (packed, see
-    :meth:`~algorithms.common.selection.ToolSet.packed`) has a removal value of at least ``margin``: a ray that
+    :meth:`~algorithms.common.cutaway.ToolSet.packed`) has a removal value of at least ``margin``: a ray that
     stays outside it needs no :func:`ray_interval`. Unbounded (``-inf``, ``inf``) when some tool is a ``keep`` tool
     (outside it everything is removed), a half-space, or when bounds are off."""
     kinds, modes, matrices, params, shapes, settings = tools[0], tools[1], tools[2], tools[3], tools[5], tools[7]

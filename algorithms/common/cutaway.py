@@ -61,6 +61,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from .sampling import blend_corners
+
 #: Shape codes.
 BOX, SPHERE, CYLINDER, HALFSPACE, GRID = 0, 1, 2, 3, 4
 SHAPES = {"box": BOX, "sphere": SPHERE, "cylinder": CYLINDER, "plane": HALFSPACE, "grid": GRID}
@@ -86,7 +88,7 @@ class ToolSet:
     which cut samples take the tool's normal, ``cut_normals`` False on the cheap path while a tool moves.
     ``grid_leaps`` (laid out as ``grid_values``) holds the grid tools' leap depth tables (:func:`grid_leap_depths`)
     made for ``leap_key = (evaluation, width)``; ``leap`` False turns the leap off (every sample is tested).
-    ``bounds`` False turns the per-ray bounds off (:func:`~algorithms.common.selection_bounds.ray_interval`: every
+    ``bounds`` False turns the per-ray bounds off (:func:`~algorithms.common.cutaway_bounds.ray_interval`: every
     sample of a ray is tested).
     ``grid_clears`` (laid out as ``grid_values``) holds the grid tools' clearance tables (:func:`grid_clear_depths`)
     made for removal values of at least ``clear_margin``; they serve while every margin a renderer tests against is
@@ -165,7 +167,7 @@ class ToolSet:
 
     def largest_margin(self) -> float:
         """The largest test margin a renderer can use with these settings (see
-        :func:`~algorithms.common.selection_bounds.bounds_margin`)."""
+        :func:`~algorithms.common.cutaway_bounds.bounds_margin`)."""
         return max(0.0 if self.evaluation == "binary" else 0.5 * self.width, self.band if self.cut_normals else 0.0)
 
     def grid_clears_valid(self) -> bool:
@@ -224,23 +226,12 @@ def _grid_value(values, offset, nx, ny, nz, x, y, z):
     k0 = min(int(z), max(nz - 2, 0))
     i1, j1, k1 = min(i0 + 1, nx - 1), min(j0 + 1, ny - 1), min(k0 + 1, nz - 1)
     fx, fy, fz = x - i0, y - j0, z - k0
-    row = nx
-    plane = nx * ny
-    c000 = values[offset + k0 * plane + j0 * row + i0]
-    c001 = values[offset + k0 * plane + j0 * row + i1]
-    c010 = values[offset + k0 * plane + j1 * row + i0]
-    c011 = values[offset + k0 * plane + j1 * row + i1]
-    c100 = values[offset + k1 * plane + j0 * row + i0]
-    c101 = values[offset + k1 * plane + j0 * row + i1]
-    c110 = values[offset + k1 * plane + j1 * row + i0]
-    c111 = values[offset + k1 * plane + j1 * row + i1]
-    c00 = c000 + fx * (c001 - c000)
-    c01 = c010 + fx * (c011 - c010)
-    c10 = c100 + fx * (c101 - c100)
-    c11 = c110 + fx * (c111 - c110)
-    c0 = c00 + fy * (c01 - c00)
-    c1 = c10 + fy * (c11 - c10)
-    return c0 + fz * (c1 - c0)
+    a = offset + k0 * nx * ny  # the cell's lower (k0) and upper (k1) planes
+    b = offset + k1 * nx * ny
+    return blend_corners(
+        values[a + j0 * nx + i0], values[a + j0 * nx + i1], values[a + j1 * nx + i0], values[a + j1 * nx + i1],
+        values[b + j0 * nx + i0], values[b + j0 * nx + i1], values[b + j1 * nx + i0], values[b + j1 * nx + i1],
+        fx, fy, fz)
 
 
 @njit(cache=True, nogil=True, forceinline=True)
